@@ -1,0 +1,692 @@
+//! The per-tick controller: raw measurement in, saturated torque command out.
+//!
+//! [`Controller::step`] is the one function the firmware's 1 kHz interrupt and the host's
+//! closed-loop simulation both call. It never fails and never panics: every way a reading can
+//! be wrong (a bridge at its rail, an encoder jump no hub could make in one tick, strain past
+//! the limit, an amplifier fault, a non-finite number) latches a fault that turns the torque
+//! off until [`Controller::reset`]. Configuration ([`ControllerSettings`], the law, the move) is
+//! validated once by [`Controller::try_build`]; the mutable state is small and fixed-size.
+//!
+//! The state machine: `Idle` (torque off; the strain offset is averaged, since the beam is at
+//! rest) -> `Slewing` (tracking the spline after [`Controller::start_move`]) -> `Holding` (the
+//! law keeps regulating the final point) ; any fault -> `Fault` (torque off, latched).
+
+use crate::beam::{ParamError, ParamErrorKind};
+use crate::law::{ControlLaw, Estimate};
+use crate::measure::{AdcSpec, CounterExtender, EncoderSpec, LowPass};
+use crate::spline::{RefPoint, Spline};
+use core::fmt;
+
+/// One tick's raw sensor readings, exactly as the hardware gives them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RawMeasurement {
+    /// The hardware encoder counter (only its low `counter_bits` are used; it wraps).
+    pub encoder_raw: u32,
+    /// The root strain bridge ADC code.
+    pub strain_root_code: i32,
+    /// The amplifier's fault input is asserted.
+    pub amp_fault: bool,
+}
+
+/// Controller mode.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Mode {
+    /// Torque off, waiting for a move; the strain offset is being measured.
+    #[default]
+    Idle,
+    /// Tracking the move's spline.
+    Slewing,
+    /// The move is over; regulating its final position.
+    Holding,
+    /// A fault was latched; torque off until reset.
+    Fault,
+}
+
+/// A set of latched faults (bit flags).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FaultFlags(pub u8);
+
+impl FaultFlags {
+    /// A derived value (angle, velocity, strain, torque) was NaN or infinite.
+    pub const NON_FINITE: FaultFlags = FaultFlags(1 << 0);
+    /// The strain ADC sat at a rail: saturated or disconnected bridge.
+    pub const ADC_RAIL: FaultFlags = FaultFlags(1 << 1);
+    /// The encoder moved further in one tick than the hub physically can.
+    pub const ENCODER_JUMP: FaultFlags = FaultFlags(1 << 2);
+    /// The root strain exceeded the limit.
+    pub const OVER_STRAIN: FaultFlags = FaultFlags(1 << 3);
+    /// The amplifier reported a fault.
+    pub const AMP_FAULT: FaultFlags = FaultFlags(1 << 4);
+    /// A move was started with the hub away from the move's start position.
+    pub const START_MISMATCH: FaultFlags = FaultFlags(1 << 5);
+
+    /// Names for display, in bit order.
+    const NAMES: [&'static str; 6] = [
+        "non-finite",
+        "adc-rail",
+        "encoder-jump",
+        "over-strain",
+        "amp-fault",
+        "start-mismatch",
+    ];
+
+    /// True when no fault is set.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// True when every flag of `other` is set in `self`.
+    pub const fn contains(self, other: FaultFlags) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// Sets the flags of `other`.
+    pub fn insert(&mut self, other: FaultFlags) {
+        self.0 |= other.0;
+    }
+}
+
+impl fmt::Display for FaultFlags {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.is_empty() {
+            return write!(f, "none");
+        }
+        let mut first = true;
+        for (bit, name) in Self::NAMES.iter().enumerate() {
+            if self.0 & (1 << bit) != 0 {
+                write!(f, "{}{}", if first { "" } else { "," }, name)?;
+                first = false;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What one tick produces: the torque to apply and what the controller saw.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TorqueCommand {
+    /// Torque to apply, N m: finite and within the limit, zero unless slewing or holding.
+    pub torque_nm: f32,
+    /// The mode after this tick.
+    pub mode: Mode,
+    /// Latched faults.
+    pub faults: FaultFlags,
+    /// Measured hub angle, rad.
+    pub theta_rad: f32,
+    /// Reference hub angle, rad.
+    pub theta_ref_rad: f32,
+    /// Measured root strain (offset removed).
+    pub strain: f32,
+}
+
+/// Everything about the loop that is not the law or the move. SI units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ControllerSettings {
+    /// Sample period, s.
+    pub ts_s: f32,
+    /// The hub encoder and its counter.
+    pub encoder: EncoderSpec,
+    /// The root strain ADC.
+    pub adc: AdcSpec,
+    /// Hub angle when the encoder counter was zeroed (power-up), rad.
+    pub theta_home_rad: f32,
+    /// Cutoff of the velocity low-pass, Hz.
+    pub velocity_cutoff_hz: f32,
+    /// Cutoff of the strain-rate low-pass, Hz.
+    pub strain_rate_cutoff_hz: f32,
+    /// Drive torque limit, N m.
+    pub torque_limit_nm: f32,
+    /// Fastest physically possible hub speed, rad/s: a bigger count change in one tick is an
+    /// encoder fault.
+    pub max_speed_rad_s: f32,
+    /// Root strain that trips the over-strain fault (dimensionless).
+    pub max_strain: f32,
+    /// How far from the move's start the hub may be when a move starts, rad.
+    pub start_tolerance_rad: f32,
+    /// ADC code of zero strain, used when no idle samples were averaged before a move.
+    pub strain_offset_code: i32,
+}
+
+impl Default for ControllerSettings {
+    fn default() -> Self {
+        Self {
+            ts_s: crate::DEFAULT_TS_S,
+            encoder: EncoderSpec::DEFAULT,
+            adc: AdcSpec::DEFAULT,
+            theta_home_rad: -core::f32::consts::FRAC_PI_2,
+            velocity_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,
+            strain_rate_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,
+            torque_limit_nm: 10.0,
+            // The paper's slew peaks at 15/8 * pi / 0.35 s = 16.8 rad/s.
+            max_speed_rad_s: 50.0,
+            // Aluminium yields near 4000 microstrain.
+            max_strain: 3000e-6,
+            start_tolerance_rad: 0.05,
+            strain_offset_code: 0,
+        }
+    }
+}
+
+/// Why a controller could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConfigError {
+    /// A setting or gain is invalid.
+    Param(ParamError),
+}
+
+impl From<ParamError> for ConfigError {
+    fn from(e: ParamError) -> Self {
+        ConfigError::Param(e)
+    }
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::Param(e) => e.fmt(f),
+        }
+    }
+}
+
+/// Validated, immutable configuration derived from the settings.
+#[derive(Clone, Debug, PartialEq)]
+struct Config<const K: usize> {
+    settings: ControllerSettings,
+    law: ControlLaw,
+    spline: Spline<K>,
+    rad_per_count: f32,
+    strain_per_code: f32,
+    max_counts_per_tick: i64,
+    velocity_lpf: LowPass,
+    strain_rate_lpf: LowPass,
+}
+
+/// Loop state: filters, counters and the mode.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct State {
+    mode: Mode,
+    faults: FaultFlags,
+    counter: CounterExtender,
+    omega: f32,
+    strain_rate: f32,
+    last_strain: Option<f32>,
+    zero_sum: i64,
+    zero_n: u32,
+    offset_code: f32,
+    start_pending: bool,
+    ticks: u32,
+}
+
+/// Idle samples averaged for the strain offset at most (a quarter second at 1 kHz is plenty,
+/// and the sum cannot overflow).
+const MAX_ZERO_SAMPLES: u32 = 1 << 16;
+
+/// Why a command was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommandError {
+    /// A fault is latched: reset first.
+    Faulted,
+    /// A move is already running.
+    Busy,
+}
+
+/// The per-tick controller, generic over the move's knot capacity `K`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Controller<const K: usize> {
+    cfg: Config<K>,
+    st: State,
+}
+
+impl<const K: usize> Controller<K> {
+    /// Validates `settings` and builds an idle controller running `law` along `spline`.
+    pub fn try_build(
+        settings: ControllerSettings,
+        law: ControlLaw,
+        spline: Spline<K>,
+    ) -> Result<Self, ConfigError> {
+        let s = &settings;
+        let bad = |field, kind| ConfigError::Param(ParamError { field, kind });
+        for (field, v) in [
+            ("ts_s", s.ts_s),
+            ("theta_home_rad", s.theta_home_rad),
+            ("velocity_cutoff_hz", s.velocity_cutoff_hz),
+            ("strain_rate_cutoff_hz", s.strain_rate_cutoff_hz),
+            ("torque_limit_nm", s.torque_limit_nm),
+            ("max_speed_rad_s", s.max_speed_rad_s),
+            ("max_strain", s.max_strain),
+            ("start_tolerance_rad", s.start_tolerance_rad),
+        ] {
+            if !v.is_finite() {
+                return Err(bad(field, ParamErrorKind::NonFinite));
+            }
+        }
+        for (field, v) in [
+            ("ts_s", s.ts_s),
+            ("torque_limit_nm", s.torque_limit_nm),
+            ("max_speed_rad_s", s.max_speed_rad_s),
+            ("max_strain", s.max_strain),
+            ("start_tolerance_rad", s.start_tolerance_rad),
+        ] {
+            if !(v > 0.0) {
+                return Err(bad(field, ParamErrorKind::NotPositive));
+            }
+        }
+        if s.encoder.counts_per_rev == 0 {
+            return Err(bad("encoder.counts_per_rev", ParamErrorKind::NotPositive));
+        }
+        if !(2..=32).contains(&s.encoder.counter_bits) {
+            return Err(bad("encoder.counter_bits", ParamErrorKind::OutOfRange));
+        }
+        if !(2..=32).contains(&s.adc.bits) {
+            return Err(bad("adc.bits", ParamErrorKind::OutOfRange));
+        }
+        if !(s.adc.full_scale_strain > 0.0 && s.adc.full_scale_strain.is_finite()) {
+            return Err(bad("adc.full_scale_strain", ParamErrorKind::NotPositive));
+        }
+        let velocity_lpf = LowPass::from_cutoff(s.velocity_cutoff_hz, s.ts_s)
+            .ok_or(bad("velocity_cutoff_hz", ParamErrorKind::NotPositive))?;
+        let strain_rate_lpf = LowPass::from_cutoff(s.strain_rate_cutoff_hz, s.ts_s)
+            .ok_or(bad("strain_rate_cutoff_hz", ParamErrorKind::NotPositive))?;
+        let rad_per_count = s.encoder.rad_per_count();
+        let max_counts = libm::ceil(s.max_speed_rad_s as f64 * s.ts_s as f64 / rad_per_count);
+        // The wrapped difference is only unambiguous below half the counter's range.
+        let half_range = (1i64 << (s.encoder.counter_bits - 1)) - 1;
+        if max_counts >= half_range as f64 {
+            return Err(bad("max_speed_rad_s", ParamErrorKind::OutOfRange));
+        }
+        let cfg = Config {
+            settings,
+            law,
+            spline,
+            rad_per_count: rad_per_count as f32,
+            strain_per_code: s.adc.strain_per_code() as f32,
+            max_counts_per_tick: max_counts as i64,
+            velocity_lpf,
+            strain_rate_lpf,
+        };
+        let st = State {
+            offset_code: s.strain_offset_code as f32,
+            ..State::default()
+        };
+        Ok(Self { cfg, st })
+    }
+
+    /// Arms the move: the next tick starts it if the hub is at the spline's start.
+    pub fn start_move(&mut self) -> Result<(), CommandError> {
+        match self.st.mode {
+            Mode::Fault => Err(CommandError::Faulted),
+            Mode::Slewing => Err(CommandError::Busy),
+            Mode::Idle | Mode::Holding => {
+                self.st.start_pending = true;
+                Ok(())
+            }
+        }
+    }
+
+    /// Clears latched faults and returns to `Idle` (torque off). The strain offset is measured
+    /// again from the following idle ticks.
+    pub fn reset(&mut self) {
+        let counter = self.st.counter;
+        self.st = State {
+            counter,
+            offset_code: self.cfg.settings.strain_offset_code as f32,
+            ..State::default()
+        };
+    }
+
+    /// Swaps in a new, already validated law (gains), whole. Refused while slewing.
+    pub fn set_law(&mut self, law: ControlLaw) -> Result<(), CommandError> {
+        if self.st.mode == Mode::Slewing {
+            return Err(CommandError::Busy);
+        }
+        self.cfg.law = law;
+        Ok(())
+    }
+
+    /// The current mode.
+    pub fn mode(&self) -> Mode {
+        self.st.mode
+    }
+
+    /// The latched faults.
+    pub fn faults(&self) -> FaultFlags {
+        self.st.faults
+    }
+
+    /// The move.
+    pub fn spline(&self) -> &Spline<K> {
+        &self.cfg.spline
+    }
+
+    /// The validated settings.
+    pub fn settings(&self) -> &ControllerSettings {
+        &self.cfg.settings
+    }
+
+    /// One control tick. Never fails, never panics; the torque is finite and within the limit.
+    pub fn step(&mut self, raw: &RawMeasurement) -> TorqueCommand {
+        let cfg = &self.cfg;
+        let st = &mut self.st;
+        let s = &cfg.settings;
+        let mut faults = FaultFlags::default();
+
+        // Hub angle and velocity from the extended count.
+        let (count, delta) = st.counter.update(raw.encoder_raw, &s.encoder);
+        if delta.unsigned_abs() > cfg.max_counts_per_tick as u64 {
+            faults.insert(FaultFlags::ENCODER_JUMP);
+        }
+        let theta = s.theta_home_rad + count as f32 * cfg.rad_per_count;
+        let omega = cfg
+            .velocity_lpf
+            .process(&mut st.omega, delta as f32 * cfg.rad_per_count / s.ts_s);
+
+        // A pending start: check the hub is where the move begins, freeze the strain offset.
+        if st.start_pending && st.mode != Mode::Fault {
+            st.start_pending = false;
+            if libm::fabsf(theta - cfg.spline.start()) > s.start_tolerance_rad {
+                faults.insert(FaultFlags::START_MISMATCH);
+            } else {
+                if st.mode == Mode::Idle && st.zero_n > 0 {
+                    st.offset_code = (st.zero_sum as f64 / st.zero_n as f64) as f32;
+                }
+                st.mode = Mode::Slewing;
+                st.ticks = 0;
+                st.last_strain = None;
+                st.strain_rate = 0.0;
+            }
+        }
+
+        // Strain, offset removed, and its filtered rate.
+        let code = raw.strain_root_code;
+        if s.adc.at_rail(code) {
+            faults.insert(FaultFlags::ADC_RAIL);
+        }
+        if st.mode == Mode::Idle && st.zero_n < MAX_ZERO_SAMPLES {
+            st.zero_sum += code as i64;
+            st.zero_n += 1;
+        }
+        let strain = (code as f32 - st.offset_code) * cfg.strain_per_code;
+        let strain_rate = match st.last_strain {
+            Some(prev) => cfg
+                .strain_rate_lpf
+                .process(&mut st.strain_rate, (strain - prev) / s.ts_s),
+            None => 0.0,
+        };
+        st.last_strain = Some(strain);
+        if libm::fabsf(strain) > s.max_strain {
+            faults.insert(FaultFlags::OVER_STRAIN);
+        }
+        if raw.amp_fault {
+            faults.insert(FaultFlags::AMP_FAULT);
+        }
+        if !(theta.is_finite()
+            && omega.is_finite()
+            && strain.is_finite()
+            && strain_rate.is_finite())
+        {
+            faults.insert(FaultFlags::NON_FINITE);
+        }
+
+        // Any fault latches.
+        if !faults.is_empty() {
+            st.faults.insert(faults);
+            st.mode = Mode::Fault;
+        }
+
+        // The law.
+        let mut reference = RefPoint {
+            pos: theta,
+            vel: 0.0,
+            acc: 0.0,
+        };
+        let mut torque = 0.0;
+        if matches!(st.mode, Mode::Slewing | Mode::Holding) {
+            let t = st.ticks as f32 * s.ts_s;
+            reference = cfg.spline.eval(t);
+            if st.mode == Mode::Slewing {
+                if t >= cfg.spline.duration_s() {
+                    st.mode = Mode::Holding;
+                } else {
+                    st.ticks += 1;
+                }
+            }
+            let x = Estimate {
+                theta,
+                omega,
+                strain,
+                strain_rate,
+            };
+            torque = cfg.law.torque_nm(&x, &reference);
+            if !torque.is_finite() {
+                st.faults.insert(FaultFlags::NON_FINITE);
+                st.mode = Mode::Fault;
+                torque = 0.0;
+            }
+        }
+        let limit = s.torque_limit_nm;
+        TorqueCommand {
+            torque_nm: torque.clamp(-limit, limit),
+            mode: st.mode,
+            faults: st.faults,
+            theta_rad: theta,
+            theta_ref_rad: reference.pos,
+            strain,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::beam::{Beam, BeamParams};
+    use crate::law::{Law, PdGains, SmcGains, Switching};
+    use crate::modal::ModalModel;
+    use proptest::prelude::*;
+
+    fn controller(law: Law) -> Controller<4> {
+        let m =
+            ModalModel::<2>::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
+        let law = ControlLaw::try_build(law, &m).unwrap();
+        let half_pi = core::f32::consts::FRAC_PI_2;
+        Controller::try_build(
+            ControllerSettings::default(),
+            law,
+            Spline::quintic(-half_pi, half_pi, 0.35).unwrap(),
+        )
+        .unwrap()
+    }
+
+    const SMC: Law = Law::Smc(SmcGains {
+        w: 30.0,
+        a: 20.0,
+        beta: 0.3,
+        c: 0.0,
+        switching: Switching::Tanh,
+        model_terms: false,
+    });
+
+    #[test]
+    fn idle_until_started_then_slews_then_holds() {
+        let mut c = controller(Law::Pd(PdGains::BASELINE));
+        let raw = RawMeasurement::default();
+        let out = c.step(&raw);
+        assert_eq!((out.mode, out.torque_nm), (Mode::Idle, 0.0));
+        c.start_move().unwrap();
+        let out = c.step(&raw);
+        assert_eq!(out.mode, Mode::Slewing);
+        // At rest at the start the PD pushes toward the reference, which has not moved yet.
+        assert_eq!(out.torque_nm, 0.0);
+        for _ in 0..400 {
+            c.step(&raw);
+        }
+        let out = c.step(&raw);
+        assert_eq!(out.mode, Mode::Holding);
+        // The hub never moved, so PD pushes with Kp * pi, saturated at the limit.
+        assert_eq!(out.torque_nm, 10.0);
+        assert_eq!(c.start_move(), Ok(()));
+    }
+
+    #[test]
+    fn faults_latch_with_torque_off_until_reset() {
+        let mut c = controller(SMC);
+        c.step(&RawMeasurement::default());
+        c.start_move().unwrap();
+        c.step(&RawMeasurement::default());
+        let out = c.step(&RawMeasurement {
+            amp_fault: true,
+            ..Default::default()
+        });
+        assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
+        assert!(out.faults.contains(FaultFlags::AMP_FAULT));
+        // The fault input clearing does not clear the fault.
+        let out = c.step(&RawMeasurement::default());
+        assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
+        assert_eq!(c.start_move(), Err(CommandError::Faulted));
+        c.reset();
+        assert_eq!(c.step(&RawMeasurement::default()).mode, Mode::Idle);
+    }
+
+    #[test]
+    fn each_bad_reading_names_its_fault() {
+        let cases: [(RawMeasurement, FaultFlags); 3] = [
+            (
+                RawMeasurement {
+                    strain_root_code: i32::MAX,
+                    ..Default::default()
+                },
+                FaultFlags::ADC_RAIL,
+            ),
+            (
+                RawMeasurement {
+                    encoder_raw: 5000,
+                    ..Default::default()
+                },
+                FaultFlags::ENCODER_JUMP,
+            ),
+            // 4000 microstrain is past the 3000 limit but inside the ADC's 5000 span.
+            (
+                RawMeasurement {
+                    strain_root_code: (4000e-6 / AdcSpec::DEFAULT.strain_per_code()) as i32,
+                    ..Default::default()
+                },
+                FaultFlags::OVER_STRAIN,
+            ),
+        ];
+        for (raw, flag) in cases {
+            let mut c = controller(SMC);
+            c.step(&RawMeasurement::default());
+            let out = c.step(&raw);
+            assert_eq!(out.mode, Mode::Fault, "{flag}");
+            assert!(out.faults.contains(flag), "{} lacks {flag}", out.faults);
+        }
+    }
+
+    #[test]
+    fn a_move_started_away_from_its_start_is_refused() {
+        let mut c = controller(SMC);
+        c.step(&RawMeasurement::default());
+        // Move the hub 100 counts per tick (within the speed limit) to 0.3 rad away.
+        let mut raw = 0u32;
+        for _ in 0..8 {
+            raw += 100;
+            c.step(&RawMeasurement {
+                encoder_raw: raw,
+                ..Default::default()
+            });
+        }
+        c.start_move().unwrap();
+        let out = c.step(&RawMeasurement {
+            encoder_raw: raw,
+            ..Default::default()
+        });
+        assert!(out.faults.contains(FaultFlags::START_MISMATCH));
+        assert_eq!(out.torque_nm, 0.0);
+    }
+
+    #[test]
+    fn idle_averaging_removes_the_strain_offset() {
+        let mut c = controller(SMC);
+        for k in 0..100 {
+            c.step(&RawMeasurement {
+                strain_root_code: 1000 + (k % 2) * 2,
+                ..Default::default()
+            });
+        }
+        c.start_move().unwrap();
+        let out = c.step(&RawMeasurement {
+            strain_root_code: 1001,
+            ..Default::default()
+        });
+        assert_eq!(out.strain, 0.0);
+    }
+
+    #[test]
+    fn bad_settings_are_named() {
+        let m =
+            ModalModel::<1>::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
+        let law = ControlLaw::try_build(SMC, &m).unwrap();
+        let spline = Spline::<2>::quintic(0.0, 1.0, 0.35).unwrap();
+        let build = |s| Controller::try_build(s, law, spline.clone()).unwrap_err();
+        let named = |e: ConfigError| match e {
+            ConfigError::Param(p) => p.field,
+        };
+        assert_eq!(
+            named(build(ControllerSettings {
+                ts_s: 0.0,
+                ..Default::default()
+            })),
+            "ts_s"
+        );
+        assert_eq!(
+            named(build(ControllerSettings {
+                max_strain: f32::NAN,
+                ..Default::default()
+            })),
+            "max_strain"
+        );
+        assert_eq!(
+            named(build(ControllerSettings {
+                max_speed_rad_s: 1e6,
+                ..Default::default()
+            })),
+            "max_speed_rad_s"
+        );
+    }
+
+    proptest! {
+        /// Whatever the sensors say, tick after tick, the torque is finite and within the
+        /// limit, and torque is only applied while slewing or holding.
+        #[test]
+        fn step_is_total_and_bounded(
+            law_pick in 0usize..3,
+            starts in prop::collection::vec(any::<bool>(), 1..60),
+            raws in prop::collection::vec((any::<u32>(), any::<i32>(), any::<bool>()), 1..60),
+        ) {
+            let laws = [Law::Pd(PdGains::BASELINE), SMC, Law::SmcStrain(SmcGains { c: -50.0, model_terms: true, ..match SMC { Law::Smc(g) => g, _ => unreachable!() } })];
+            let mut c = controller(laws[law_pick]);
+            for (i, (enc, code, amp)) in raws.into_iter().enumerate() {
+                if starts[i % starts.len()] {
+                    let _ = c.start_move();
+                }
+                if i % 17 == 16 {
+                    c.reset();
+                }
+                let out = c.step(&RawMeasurement { encoder_raw: enc, strain_root_code: code, amp_fault: amp });
+                prop_assert!(out.torque_nm.is_finite() && out.torque_nm.abs() <= 10.0);
+                if !matches!(out.mode, Mode::Slewing | Mode::Holding) {
+                    prop_assert_eq!(out.torque_nm, 0.0);
+                }
+                if out.mode == Mode::Fault {
+                    prop_assert!(!out.faults.is_empty());
+                }
+            }
+        }
+    }
+}

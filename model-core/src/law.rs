@@ -1,0 +1,394 @@
+//! The control laws: the paper's sliding-mode controller, the strain-augmented variant, and
+//! the PD baseline (DESIGN section 4).
+//!
+//! [`Law`] is what a user chooses (gains and variant); [`ControlLaw::try_build`] validates it
+//! against a [`ModalModel`] once and folds the model into a few `f32` constants, so the
+//! per-tick [`ControlLaw::torque_nm`] is a handful of multiply-adds and one `tanhf`.
+
+use crate::beam::{ParamError, ParamErrorKind};
+use crate::modal::ModalModel;
+use crate::spline::RefPoint;
+
+/// The boundary-layer switching function f in `A f(beta s)`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Switching {
+    /// Smooth bounded sign, tanh (the default: no chatter).
+    #[default]
+    Tanh,
+    /// Linear boundary layer, clamp(x, -1, 1).
+    Sat,
+    /// Ideal relay, sign(x) (chatters; for comparison).
+    Sign,
+}
+
+impl Switching {
+    /// f(x).
+    #[inline]
+    pub fn apply(self, x: f32) -> f32 {
+        match self {
+            Switching::Tanh => libm::tanhf(x),
+            Switching::Sat => x.clamp(-1.0, 1.0),
+            Switching::Sign => {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+
+    /// The lower-case name used on the command line and in tables.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Switching::Tanh => "tanh",
+            Switching::Sat => "sat",
+            Switching::Sign => "sign",
+        }
+    }
+}
+
+/// PD gains: `tau = Kp (theta_r - theta) + Kd (theta_r' - theta')`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PdGains {
+    /// Proportional gain, N m/rad.
+    pub kp: f32,
+    /// Derivative gain, N m s/rad.
+    pub kd: f32,
+}
+
+impl PdGains {
+    /// The paper's calibration controller and our baseline: Kp 20, Kd 1.
+    pub const BASELINE: PdGains = PdGains { kp: 20.0, kd: 1.0 };
+}
+
+/// Sliding-mode gains.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SmcGains {
+    /// Surface slope W, 1/s: s = W e + e'.
+    pub w: f32,
+    /// Switching gain A, rad/s^2.
+    pub a: f32,
+    /// Boundary-layer slope beta, s/rad.
+    pub beta: f32,
+    /// Strain blend c, rad per unit strain: y = theta + c eps_root (strain variant only).
+    pub c: f32,
+    /// Switching function.
+    pub switching: Switching,
+    /// Keep the model terms C M^-1 (N + K) with q estimated from the root strain
+    /// (strain variant only).
+    pub model_terms: bool,
+}
+
+/// Which law runs, with its gains.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Law {
+    /// The PD baseline.
+    Pd(PdGains),
+    /// The paper's SMC: output theta, model terms zero, `[C M^-1 B]^-1 = Jeff`.
+    /// `c` and `model_terms` are ignored.
+    Smc(SmcGains),
+    /// The strain-augmented SMC on y = theta + c eps_root.
+    SmcStrain(SmcGains),
+}
+
+impl Law {
+    /// The controller's name on the command line: `pd`, `smc`, `smc-strain`.
+    pub const fn name(&self) -> &'static str {
+        match self {
+            Law::Pd(_) => "pd",
+            Law::Smc(_) => "smc",
+            Law::SmcStrain(_) => "smc-strain",
+        }
+    }
+}
+
+/// The measured state the laws use, SI.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimate {
+    /// Hub angle, rad.
+    pub theta: f32,
+    /// Hub velocity, rad/s (filtered).
+    pub omega: f32,
+    /// Root strain (dimensionless).
+    pub strain: f32,
+    /// Root strain rate, 1/s (filtered).
+    pub strain_rate: f32,
+}
+
+/// Smallest admissible `1 - c gamma`: the blended output's input gain relative to the hub's.
+/// Below it the surface's control direction nearly vanishes (or flips).
+const MIN_INPUT_GAIN_RATIO: f32 = 0.2;
+
+/// A validated law folded with the model constants it needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlLaw {
+    law: Law,
+    /// Jeff for the paper law; [C M^-1 B]^-1 for the strain law, kg m^2.
+    inertia: f32,
+    /// Model-term coefficients (strain law with `model_terms`), see `try_build`.
+    model: ModelTerms,
+}
+
+/// `C M^-1 (N + K)` with q = [q1, 0, ..] from the root strain, reduced to scalars.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct ModelTerms {
+    enabled: bool,
+    /// 1 / (t/2 phi_1''(x_g)): modal coordinate per unit strain.
+    q_per_strain: f32,
+    r_theta: f32,
+    viscous: f32,
+    s11: f32,
+    k_sum: f32,
+    c_sum: f32,
+    s_sum: f32,
+}
+
+impl ControlLaw {
+    /// Validates `law`'s gains and precomputes what the tick needs from `model`.
+    pub fn try_build<const N: usize>(law: Law, model: &ModalModel<N>) -> Result<Self, ParamError> {
+        fn bad<T>(field: &'static str, kind: ParamErrorKind) -> Result<T, ParamError> {
+            Err(ParamError { field, kind })
+        }
+        let finite = |field: &'static str, v: f32| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                bad(field, ParamErrorKind::NonFinite)
+            }
+        };
+        let jeff = model.jeff;
+        match law {
+            Law::Pd(g) => {
+                finite("kp", g.kp)?;
+                finite("kd", g.kd)?;
+                if g.kp < 0.0 {
+                    return bad("kp", ParamErrorKind::Negative);
+                }
+                if g.kd < 0.0 {
+                    return bad("kd", ParamErrorKind::Negative);
+                }
+                Ok(Self {
+                    law,
+                    inertia: jeff as f32,
+                    model: ModelTerms::default(),
+                })
+            }
+            Law::Smc(g) | Law::SmcStrain(g) => {
+                for (field, v) in [("w", g.w), ("a", g.a), ("beta", g.beta), ("c", g.c)] {
+                    finite(field, v)?;
+                }
+                if !(g.w > 0.0) {
+                    return bad("w", ParamErrorKind::NotPositive);
+                }
+                if g.a < 0.0 {
+                    return bad("a", ParamErrorKind::Negative);
+                }
+                if !(g.beta > 0.0) {
+                    return bad("beta", ParamErrorKind::NotPositive);
+                }
+                if let Law::Smc(_) = law {
+                    return Ok(Self {
+                        law,
+                        inertia: jeff as f32,
+                        model: ModelTerms::default(),
+                    });
+                }
+                Self::strain_law(law, g, model)
+            }
+        }
+    }
+
+    /// The strain law's constants. With x = [theta; q], M0 = M(q = 0) and the output row
+    /// C = [1, c e'] (e the root strain coefficients), block inversion gives
+    /// C M0^-1 B = (1 - c gamma) / Jeff with gamma = e' Mqq^-1 h, and the row
+    /// C M0^-1 = [r_theta, r_q] with r_theta = (1 - c gamma)/Jeff and
+    /// r_q = c e' Mqq^-1 - r_theta h' Mqq^-1.
+    fn strain_law<const N: usize>(
+        law: Law,
+        g: SmcGains,
+        m: &ModalModel<N>,
+    ) -> Result<Self, ParamError> {
+        let c = g.c as f64;
+        let e = m.root_strain_coef;
+        let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
+        let gamma = crate::linalg::dot(&e, &minv_h);
+        let ratio = 1.0 - c * gamma;
+        if !(ratio >= MIN_INPUT_GAIN_RATIO as f64) {
+            return Err(ParamError {
+                field: "c",
+                kind: ParamErrorKind::OutOfRange,
+            });
+        }
+        let r_theta = ratio / m.jeff;
+        let e_minv = crate::linalg::mat_vec(&m.mqq_inv, &e); // Mqq^-1 symmetric: e' Mqq^-1
+        let r_q: [f64; N] = core::array::from_fn(|j| c * e_minv[j] - r_theta * minv_h[j]);
+        let col0 = |a: &crate::linalg::Mat<N>| (0..N).map(|j| r_q[j] * a[j][0]).sum::<f64>();
+        let model = if g.model_terms && e[0].abs() > 0.0 {
+            ModelTerms {
+                enabled: true,
+                q_per_strain: (1.0 / e[0]) as f32,
+                r_theta: r_theta as f32,
+                viscous: m.beam.params().viscous_nms as f32,
+                s11: m.s[0][0] as f32,
+                k_sum: col0(&m.kqq) as f32,
+                c_sum: col0(&m.cq) as f32,
+                s_sum: col0(&m.s) as f32,
+            }
+        } else {
+            ModelTerms::default()
+        };
+        Ok(Self {
+            law,
+            inertia: (1.0 / r_theta) as f32,
+            model,
+        })
+    }
+
+    /// The law as chosen.
+    pub fn law(&self) -> &Law {
+        &self.law
+    }
+
+    /// The unsaturated torque command for the estimate `x` and reference `r`, N m.
+    /// May be non-finite only if `x` or `r` is; the caller guards and saturates.
+    #[inline]
+    pub fn torque_nm(&self, x: &Estimate, r: &RefPoint) -> f32 {
+        match self.law {
+            Law::Pd(g) => g.kp * (r.pos - x.theta) + g.kd * (r.vel - x.omega),
+            Law::Smc(g) => {
+                let (e, de) = (x.theta - r.pos, x.omega - r.vel);
+                let s = g.w * e + de;
+                self.inertia * (r.acc - g.w * de - g.a * g.switching.apply(g.beta * s))
+            }
+            Law::SmcStrain(g) => {
+                let y = x.theta + g.c * x.strain;
+                let dy = x.omega + g.c * x.strain_rate;
+                let (e, de) = (y - r.pos, dy - r.vel);
+                let s = g.w * e + de;
+                let mut v = r.acc - g.w * de - g.a * g.switching.apply(g.beta * s);
+                let m = &self.model;
+                if m.enabled {
+                    let (q, dq) = (x.strain * m.q_per_strain, x.strain_rate * m.q_per_strain);
+                    let w = x.omega;
+                    v += m.r_theta * (2.0 * w * m.s11 * q * dq + m.viscous * w)
+                        + (m.k_sum - w * w * m.s_sum) * q
+                        + m.c_sum * dq;
+                }
+                self.inertia * v
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::beam::{Beam, BeamParams};
+
+    fn model() -> ModalModel<3> {
+        ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
+    }
+
+    const GAINS: SmcGains = SmcGains {
+        w: 20.0,
+        a: 5.0,
+        beta: 0.5,
+        c: 0.0,
+        switching: Switching::Tanh,
+        model_terms: false,
+    };
+
+    #[test]
+    fn switching_functions_are_bounded_odd_signs() {
+        for f in [Switching::Tanh, Switching::Sat, Switching::Sign] {
+            assert_eq!(f.apply(0.0), 0.0);
+            assert_eq!(f.apply(1e6), 1.0);
+            assert_eq!(f.apply(-1e6), -1.0);
+            assert_eq!(f.apply(0.3), -f.apply(-0.3));
+        }
+        assert_eq!(Switching::Sat.apply(0.25), 0.25);
+    }
+
+    #[test]
+    fn on_the_reference_the_smc_commands_the_rigid_feedforward() {
+        // With zero tracking error, s = 0 and u = Jeff theta_r'': the inverse dynamics of the
+        // hub seen through the Schur complement.
+        let m = model();
+        let law = ControlLaw::try_build(Law::Smc(GAINS), &m).unwrap();
+        let r = RefPoint {
+            pos: 0.3,
+            vel: 2.0,
+            acc: 40.0,
+        };
+        let x = Estimate {
+            theta: 0.3,
+            omega: 2.0,
+            ..Default::default()
+        };
+        let u = law.torque_nm(&x, &r);
+        assert!((u as f64 - m.jeff * 40.0).abs() < 1e-5 * m.jeff * 40.0);
+        // Behind the reference the SMC pushes forward.
+        let behind = Estimate {
+            theta: 0.2,
+            omega: 2.0,
+            ..Default::default()
+        };
+        assert!(law.torque_nm(&behind, &r) > u);
+    }
+
+    #[test]
+    fn strain_law_with_zero_blend_and_no_model_terms_is_the_paper_law() {
+        let m = model();
+        let paper = ControlLaw::try_build(Law::Smc(GAINS), &m).unwrap();
+        let strain = ControlLaw::try_build(Law::SmcStrain(GAINS), &m).unwrap();
+        let r = RefPoint {
+            pos: 0.1,
+            vel: -1.0,
+            acc: 3.0,
+        };
+        let x = Estimate {
+            theta: 0.15,
+            omega: -0.5,
+            strain: 1e-4,
+            strain_rate: 1e-2,
+        };
+        assert!((paper.torque_nm(&x, &r) - strain.torque_nm(&x, &r)).abs() < 1e-5);
+    }
+
+    #[test]
+    fn gains_are_validated_with_the_field_named() {
+        let m = model();
+        let err = |law| ControlLaw::try_build(law, &m).unwrap_err();
+        assert_eq!(err(Law::Smc(SmcGains { w: 0.0, ..GAINS })).field, "w");
+        assert_eq!(
+            err(Law::Smc(SmcGains {
+                beta: f32::NAN,
+                ..GAINS
+            }))
+            .kind,
+            ParamErrorKind::NonFinite
+        );
+        assert_eq!(err(Law::Pd(PdGains { kp: -1.0, kd: 1.0 })).field, "kp");
+        // A blend so large that the surface loses its control direction is rejected.
+        let gamma_sign = {
+            let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
+            crate::linalg::dot(&m.root_strain_coef, &minv_h).signum() as f32
+        };
+        assert_eq!(
+            err(Law::SmcStrain(SmcGains {
+                c: gamma_sign * 1e6,
+                ..GAINS
+            }))
+            .field,
+            "c"
+        );
+    }
+}

@@ -1,0 +1,211 @@
+//! From raw sensor readings to angle, velocity and strain.
+//!
+//! Hardware encoder counters are narrow (16 bits on most STM32 timers) and wrap; the
+//! [`CounterExtender`] unwraps them into a 64-bit count one tick at a time, so the angle never
+//! jumps at a wrap and never loses precision the way an ever-growing float would. Velocity is
+//! the backward difference of the count through a first-order low-pass ([`LowPass`]); strain is
+//! an ADC code minus its offset times a gain ([`AdcSpec`]). The same specs describe the host's
+//! simulated sensors, so what the loop sees is the same in firmware and simulation.
+
+use core::f32::consts::PI;
+
+/// An incremental encoder and the width of the hardware counter that counts it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EncoderSpec {
+    /// Counts per revolution after quadrature decoding.
+    pub counts_per_rev: u32,
+    /// Width of the hardware counter, bits (1 to 32).
+    pub counter_bits: u8,
+}
+
+impl EncoderSpec {
+    /// 16384 counts per revolution (a 4096-line encoder in x4 mode) on a 16-bit timer.
+    pub const DEFAULT: EncoderSpec = EncoderSpec {
+        counts_per_rev: 16384,
+        counter_bits: 16,
+    };
+
+    /// Radians per count.
+    pub fn rad_per_count(&self) -> f64 {
+        2.0 * core::f64::consts::PI / self.counts_per_rev as f64
+    }
+
+    /// The counter's modulus minus one, as a mask.
+    pub fn mask(&self) -> u32 {
+        if self.counter_bits >= 32 {
+            u32::MAX
+        } else {
+            (1u32 << self.counter_bits) - 1
+        }
+    }
+}
+
+/// A bipolar strain-gauge ADC: signed codes, full scale in strain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AdcSpec {
+    /// Resolution, bits (2 to 32): codes span `-2^(bits-1) ..= 2^(bits-1) - 1`.
+    pub bits: u8,
+    /// Strain at positive full scale (dimensionless, 5000e-6 = 5000 microstrain).
+    pub full_scale_strain: f64,
+}
+
+impl AdcSpec {
+    /// A 24-bit bridge converter (ADS1220 class) spanning +-5000 microstrain.
+    pub const DEFAULT: AdcSpec = AdcSpec {
+        bits: 24,
+        full_scale_strain: 5000e-6,
+    };
+
+    /// Most negative code (the lower rail).
+    pub fn min_code(&self) -> i32 {
+        (-(1i64 << (self.bits.clamp(2, 32) - 1))) as i32
+    }
+
+    /// Most positive code (the upper rail).
+    pub fn max_code(&self) -> i32 {
+        ((1i64 << (self.bits.clamp(2, 32) - 1)) - 1) as i32
+    }
+
+    /// Strain per code.
+    pub fn strain_per_code(&self) -> f64 {
+        self.full_scale_strain / (1i64 << (self.bits.clamp(2, 32) - 1)) as f64
+    }
+
+    /// True when `code` sits at either rail: a saturated or disconnected bridge.
+    pub fn at_rail(&self, code: i32) -> bool {
+        code <= self.min_code() || code >= self.max_code()
+    }
+}
+
+/// Unwraps a wrapping hardware counter into a 64-bit count.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CounterExtender {
+    last_raw: u32,
+    count: i64,
+    primed: bool,
+}
+
+impl CounterExtender {
+    /// Takes the next raw counter value (only its low `counter_bits` matter) and returns the
+    /// extended count and the signed change since the previous call. The first call sets the
+    /// origin: count 0, change 0. A change is taken modulo the counter width into
+    /// `-2^(bits-1) .. 2^(bits-1)`, so the counter must not move half its range in one tick.
+    pub fn update(&mut self, raw: u32, spec: &EncoderSpec) -> (i64, i64) {
+        let bits = spec.counter_bits.clamp(1, 32) as u32;
+        let raw = raw & spec.mask();
+        if !self.primed {
+            self.primed = true;
+            self.last_raw = raw;
+            return (self.count, 0);
+        }
+        // Sign-extend the wrapped difference from `bits` to 64 bits.
+        let diff = raw.wrapping_sub(self.last_raw) & spec.mask();
+        let shift = 64 - bits;
+        let delta = ((diff as i64) << shift) >> shift;
+        self.last_raw = raw;
+        self.count = self.count.wrapping_add(delta);
+        (self.count, delta)
+    }
+
+    /// The extended count so far.
+    pub fn count(&self) -> i64 {
+        self.count
+    }
+}
+
+/// First-order low-pass coefficient: `y += alpha (x - y)` with `alpha = 1 - exp(-2 pi fc Ts)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LowPass {
+    /// The smoothing coefficient in (0, 1].
+    pub alpha: f32,
+}
+
+impl LowPass {
+    /// The default velocity filter cutoff, Hz.
+    pub const DEFAULT_CUTOFF_HZ: f32 = 200.0;
+
+    /// The filter with cutoff `fc_hz` sampled every `ts_s`; `None` unless both are positive
+    /// and finite.
+    pub fn from_cutoff(fc_hz: f32, ts_s: f32) -> Option<LowPass> {
+        if !(fc_hz > 0.0 && ts_s > 0.0 && fc_hz.is_finite() && ts_s.is_finite()) {
+            return None;
+        }
+        Some(LowPass {
+            alpha: 1.0 - libm::expf(-2.0 * PI * fc_hz * ts_s),
+        })
+    }
+
+    /// One filter update of `state` toward `x`; returns the new output.
+    #[inline]
+    pub fn process(&self, state: &mut f32, x: f32) -> f32 {
+        *state += self.alpha * (x - *state);
+        *state
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn low_pass_has_the_documented_coefficient_and_dc_gain() {
+        let lp = LowPass::from_cutoff(200.0, 1e-3).unwrap();
+        assert!((lp.alpha - (1.0 - (-0.4 * core::f32::consts::PI).exp())).abs() < 1e-6);
+        let mut y = 0.0;
+        for _ in 0..100 {
+            lp.process(&mut y, 3.0);
+        }
+        assert!((y - 3.0).abs() < 1e-5);
+        assert!(LowPass::from_cutoff(0.0, 1e-3).is_none());
+        assert!(LowPass::from_cutoff(f32::NAN, 1e-3).is_none());
+    }
+
+    #[test]
+    fn adc_rails_and_scale() {
+        let a = AdcSpec::DEFAULT;
+        assert_eq!((a.min_code(), a.max_code()), (-8_388_608, 8_388_607));
+        assert!(a.at_rail(a.max_code()) && a.at_rail(a.min_code()) && !a.at_rail(0));
+        assert!((a.strain_per_code() * 8_388_608.0 - 5000e-6).abs() < 1e-15);
+        let a32 = AdcSpec { bits: 32, ..a };
+        assert_eq!((a32.min_code(), a32.max_code()), (i32::MIN, i32::MAX));
+    }
+
+    proptest! {
+        /// Any walk of per-tick steps smaller than half the counter range is recovered
+        /// exactly from the wrapped counter, whatever the width and start value.
+        #[test]
+        fn extension_recovers_the_true_count(
+            bits in 2u8..=32,
+            start in any::<u32>(),
+            steps in prop::collection::vec(any::<i64>(), 1..300),
+        ) {
+            let spec = EncoderSpec { counts_per_rev: 1000, counter_bits: bits };
+            let half = 1i64 << (bits - 1);
+            let mut ext = CounterExtender::default();
+            let mut truth: i64 = start as i64;
+            let raw = |c: i64| (c as u64 & spec.mask() as u64) as u32;
+            ext.update(raw(truth), &spec);
+            for s in steps {
+                let step = s.rem_euclid(2 * half - 1) - (half - 1); // |step| < half
+                truth += step;
+                let (count, delta) = ext.update(raw(truth), &spec);
+                prop_assert_eq!(delta, step);
+                prop_assert_eq!(count, truth - start as i64);
+            }
+        }
+    }
+
+    #[test]
+    fn sixteen_bit_counter_wraps_both_ways() {
+        let spec = EncoderSpec::DEFAULT;
+        let mut ext = CounterExtender::default();
+        ext.update(65_530, &spec);
+        assert_eq!(ext.update(4, &spec), (10, 10));
+        // 4 -> 65534 is six counts backwards through zero.
+        assert_eq!(ext.update(65_534, &spec), (4, -6));
+    }
+}

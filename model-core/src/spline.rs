@@ -1,0 +1,313 @@
+//! The hub-angle reference: rest-to-rest C2 splines of fixed capacity.
+//!
+//! Each segment is a quintic Hermite polynomial matching position, velocity and acceleration
+//! at both of its knots, so the spline is C2 by construction and its acceleration (which the
+//! control law feeds forward) is continuous. With two knots it is the minimum-jerk quintic
+//! `p0 + (p1-p0)(10 tau^3 - 15 tau^4 + 6 tau^5)` of the paper. Interior knot velocities and
+//! accelerations come from central differences of the knot positions; the end knots are at
+//! rest. Before the first knot and after the last the reference is held at rest.
+
+use core::fmt;
+use heapless::Vec;
+
+/// Reference position, velocity and acceleration at one instant (rad, rad/s, rad/s^2).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefPoint {
+    /// Position, rad.
+    pub pos: f32,
+    /// Velocity, rad/s.
+    pub vel: f32,
+    /// Acceleration, rad/s^2.
+    pub acc: f32,
+}
+
+/// Why a spline could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SplineError {
+    /// At least two knots are needed.
+    TooFewKnots,
+    /// More knots than the spline's capacity.
+    TooManyKnots {
+        /// The capacity `K`.
+        capacity: usize,
+    },
+    /// Knot `index` has a NaN or infinite time or position.
+    NonFinite {
+        /// Offending knot.
+        index: usize,
+    },
+    /// The first knot must be at t = 0 (time counts from the start of the move).
+    FirstKnotNotAtZero,
+    /// Knot `index` is not later than the knot before it.
+    TimesNotIncreasing {
+        /// Offending knot.
+        index: usize,
+    },
+}
+
+impl fmt::Display for SplineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SplineError::TooFewKnots => write!(f, "a move needs at least two knots"),
+            SplineError::TooManyKnots { capacity } => {
+                write!(f, "a move holds at most {capacity} knots")
+            }
+            SplineError::NonFinite { index } => write!(f, "knot {index} is not finite"),
+            SplineError::FirstKnotNotAtZero => write!(f, "the first knot must be at t = 0"),
+            SplineError::TimesNotIncreasing { index } => {
+                write!(f, "knot {index} is not later than the knot before it")
+            }
+        }
+    }
+}
+
+/// One segment: start time, duration, and coefficients in normalised time tau in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Segment {
+    t0_s: f32,
+    h_s: f32,
+    d: [f32; 6],
+}
+
+/// A rest-to-rest C2 spline with at most `K` knots (`K - 1` segments).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spline<const K: usize> {
+    segments: Vec<Segment, K>,
+    start: f32,
+    end: f32,
+    duration_s: f32,
+}
+
+impl<const K: usize> Spline<K> {
+    /// The paper's single-segment minimum-jerk move from `from` to `to` in `duration_s`.
+    pub fn quintic(from: f32, to: f32, duration_s: f32) -> Result<Self, SplineError> {
+        Self::try_build(&[(0.0, from), (duration_s, to)])
+    }
+
+    /// A spline through `knots` given as `(time_s, position_rad)`, starting at t = 0.
+    pub fn try_build(knots: &[(f32, f32)]) -> Result<Self, SplineError> {
+        let n = knots.len();
+        if n < 2 {
+            return Err(SplineError::TooFewKnots);
+        }
+        if n > K {
+            return Err(SplineError::TooManyKnots { capacity: K });
+        }
+        for (index, (t, p)) in knots.iter().enumerate() {
+            if !t.is_finite() || !p.is_finite() {
+                return Err(SplineError::NonFinite { index });
+            }
+        }
+        if knots[0].0 != 0.0 {
+            return Err(SplineError::FirstKnotNotAtZero);
+        }
+        for index in 1..n {
+            if !(knots[index].0 > knots[index - 1].0) {
+                return Err(SplineError::TimesNotIncreasing { index });
+            }
+        }
+        // Knot velocities and accelerations: rest at the ends, central differences inside.
+        let slope = |i: usize| (knots[i + 1].1 - knots[i].1) / (knots[i + 1].0 - knots[i].0);
+        let vel_acc = |i: usize| -> (f32, f32) {
+            if i == 0 || i == n - 1 {
+                return (0.0, 0.0);
+            }
+            let span = knots[i + 1].0 - knots[i - 1].0;
+            let v = (knots[i + 1].1 - knots[i - 1].1) / span;
+            let a = 2.0 * (slope(i) - slope(i - 1)) / span;
+            (v, a)
+        };
+        let mut segments = Vec::new();
+        for i in 0..n - 1 {
+            let (t0, p0) = knots[i];
+            let (t1, p1) = knots[i + 1];
+            let h = t1 - t0;
+            let (v0, a0) = vel_acc(i);
+            let (v1, a1) = vel_acc(i + 1);
+            // Quintic Hermite in tau = (t - t0)/h, with velocities and accelerations scaled.
+            let (dp, v0, v1, a0, a1) = (p1 - p0, v0 * h, v1 * h, a0 * h * h, a1 * h * h);
+            let d = [
+                p0,
+                v0,
+                0.5 * a0,
+                10.0 * dp - 6.0 * v0 - 4.0 * v1 - 1.5 * a0 + 0.5 * a1,
+                -15.0 * dp + 8.0 * v0 + 7.0 * v1 + 1.5 * a0 - a1,
+                6.0 * dp - 3.0 * v0 - 3.0 * v1 - 0.5 * a0 + 0.5 * a1,
+            ];
+            // Capacity K holds K knots, so K - 1 segments always fit.
+            let _ = segments.push(Segment {
+                t0_s: t0,
+                h_s: h,
+                d,
+            });
+        }
+        Ok(Self {
+            segments,
+            start: knots[0].1,
+            end: knots[n - 1].1,
+            duration_s: knots[n - 1].0,
+        })
+    }
+
+    /// Position, velocity and acceleration at `t_s` seconds after the start of the move,
+    /// held at rest outside [0, duration]. A NaN time gives the start point.
+    pub fn eval(&self, t_s: f32) -> RefPoint {
+        if !(t_s > 0.0) {
+            return RefPoint {
+                pos: self.start,
+                vel: 0.0,
+                acc: 0.0,
+            };
+        }
+        if t_s >= self.duration_s {
+            return RefPoint {
+                pos: self.end,
+                vel: 0.0,
+                acc: 0.0,
+            };
+        }
+        let seg = self
+            .segments
+            .iter()
+            .rev()
+            .find(|s| t_s >= s.t0_s)
+            .unwrap_or(&self.segments[0]);
+        Self::eval_in(seg, t_s)
+    }
+
+    /// Evaluates one segment's polynomial at `t_s`, clamped to that segment.
+    fn eval_in(seg: &Segment, t_s: f32) -> RefPoint {
+        let tau = ((t_s - seg.t0_s) / seg.h_s).clamp(0.0, 1.0);
+        let d = &seg.d;
+        let pos = d[0] + tau * (d[1] + tau * (d[2] + tau * (d[3] + tau * (d[4] + tau * d[5]))));
+        let vel =
+            d[1] + tau * (2.0 * d[2] + tau * (3.0 * d[3] + tau * (4.0 * d[4] + tau * 5.0 * d[5])));
+        let acc = 2.0 * d[2] + tau * (6.0 * d[3] + tau * (12.0 * d[4] + tau * 20.0 * d[5]));
+        RefPoint {
+            pos,
+            vel: vel / seg.h_s,
+            acc: acc / (seg.h_s * seg.h_s),
+        }
+    }
+
+    /// Total move time, s.
+    pub fn duration_s(&self) -> f32 {
+        self.duration_s
+    }
+
+    /// Start position, rad.
+    pub fn start(&self) -> f32 {
+        self.start
+    }
+
+    /// Final position, rad.
+    pub fn end(&self) -> f32 {
+        self.end
+    }
+
+    /// Knot times, s (the segment boundaries and the end).
+    pub fn knot_times(&self) -> impl Iterator<Item = f32> + '_ {
+        self.segments
+            .iter()
+            .map(|s| s.t0_s)
+            .chain(core::iter::once(self.duration_s))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn close(a: f32, b: f32, tol: f32) -> bool {
+        (a - b).abs() <= tol * (1.0 + b.abs())
+    }
+
+    #[test]
+    fn quintic_matches_the_minimum_jerk_polynomial() {
+        let (p0, p1, t) = (-1.5708_f32, 1.5708_f32, 0.35_f32);
+        let s = Spline::<2>::quintic(p0, p1, t).unwrap();
+        for k in 0..=70 {
+            let time = t * k as f32 / 70.0;
+            let tau = time / t;
+            let expect =
+                p0 + (p1 - p0) * (10.0 * tau.powi(3) - 15.0 * tau.powi(4) + 6.0 * tau.powi(5));
+            let vexp = (p1 - p0) * 30.0 * tau * tau * (1.0 - tau).powi(2) / t;
+            assert!(close(s.eval(time).pos, expect, 1e-5));
+            assert!(close(s.eval(time).vel, vexp, 1e-4));
+        }
+        // Peak velocity of the minimum-jerk move is 15/8 of the mean.
+        assert!(close(s.eval(t / 2.0).vel, 1.875 * (p1 - p0) / t, 1e-5));
+        assert!(close(s.eval(t / 2.0).acc, 0.0, 1e-4));
+    }
+
+    #[test]
+    fn build_errors_are_precise() {
+        assert_eq!(
+            Spline::<4>::try_build(&[(0.0, 1.0)]),
+            Err(SplineError::TooFewKnots)
+        );
+        assert_eq!(
+            Spline::<2>::try_build(&[(0.0, 0.0), (1.0, 1.0), (2.0, 0.0)]),
+            Err(SplineError::TooManyKnots { capacity: 2 })
+        );
+        assert_eq!(
+            Spline::<4>::try_build(&[(0.0, 0.0), (1.0, f32::NAN)]),
+            Err(SplineError::NonFinite { index: 1 })
+        );
+        assert_eq!(
+            Spline::<4>::try_build(&[(0.1, 0.0), (1.0, 1.0)]),
+            Err(SplineError::FirstKnotNotAtZero)
+        );
+        assert_eq!(
+            Spline::<4>::try_build(&[(0.0, 0.0), (1.0, 1.0), (1.0, 2.0)]),
+            Err(SplineError::TimesNotIncreasing { index: 2 })
+        );
+        assert!(Spline::<4>::quintic(0.0, 1.0, 0.0).is_err());
+    }
+
+    /// Random knot sets: strictly increasing times from 0, bounded positions.
+    fn knots() -> impl Strategy<Value = std::vec::Vec<(f32, f32)>> {
+        prop::collection::vec((0.02_f32..0.5, -3.0_f32..3.0), 1..7).prop_map(|steps| {
+            let mut t = 0.0;
+            let mut out = std::vec![(0.0, steps[0].1)];
+            for (dt, p) in steps {
+                t += dt;
+                out.push((t, p));
+            }
+            out
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn passes_through_knots_at_rest_at_the_ends(k in knots()) {
+            let s = Spline::<8>::try_build(&k).unwrap();
+            for &(t, p) in &k {
+                prop_assert!(close(s.eval(t).pos, p, 1e-4), "at {t}: {} vs {p}", s.eval(t).pos);
+            }
+            let (first, last) = (s.eval(0.0), s.eval(s.duration_s()));
+            prop_assert_eq!((first.vel, first.acc, last.vel, last.acc), (0.0, 0.0, 0.0, 0.0));
+            // Held outside the move.
+            prop_assert_eq!(s.eval(-1.0).pos, k[0].1);
+            prop_assert_eq!(s.eval(s.duration_s() + 5.0).pos, k[k.len() - 1].1);
+        }
+
+        #[test]
+        fn is_c2_across_every_knot(k in knots()) {
+            let s = Spline::<8>::try_build(&k).unwrap();
+            // Evaluate both neighbouring polynomials exactly at each interior knot.
+            for pair in s.segments.windows(2) {
+                let t = pair[1].t0_s;
+                let (a, b) = (Spline::<8>::eval_in(&pair[0], t), Spline::<8>::eval_in(&pair[1], t));
+                // f32 rounding of the coefficients bounds how well the sides can agree.
+                let tol = |x: f32| 1e-4 * (1.0 + x.abs());
+                prop_assert!((a.pos - b.pos).abs() < tol(a.pos), "pos at {t}: {a:?} {b:?}");
+                prop_assert!((a.vel - b.vel).abs() < 10.0 * tol(a.vel), "vel at {t}: {a:?} {b:?}");
+                prop_assert!((a.acc - b.acc).abs() < 100.0 * tol(a.acc), "acc at {t}: {a:?} {b:?}");
+            }
+        }
+    }
+}
