@@ -5,68 +5,77 @@
 //! PWM and fault pin). It already links the whole control core for the Cortex-M4F so that the
 //! build, the flash size and the no-panic discipline are checked from the first commit. With no
 //! sensors wired yet, the raw measurement stays at rest and the drive never leaves `Idle`.
-#![no_std]
-#![no_main]
+#![cfg_attr(target_os = "none", no_std, no_main)]
 
-use core::cell::RefCell;
-use cortex_m::interrupt::Mutex;
-use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m_rt::{entry, exception};
-use model_core::{
-    Beam, BeamParams, ControlLaw, Controller, ControllerSettings, Law, ModalModel, RawMeasurement,
-    SmcGains, Spline, Switching,
-};
-use panic_halt as _;
-
-/// Core clock after reset (HSI), Hz; the board issue raises it to 168 MHz.
-const CORE_HZ: u32 = 16_000_000;
-/// Control rate, Hz.
-const LOOP_HZ: u32 = 1_000;
-
-static CONTROLLER: Mutex<RefCell<Option<Controller<2>>>> = Mutex::new(RefCell::new(None));
-
-/// Builds the controller; `None` if the compiled-in configuration is invalid.
-fn build_controller() -> Option<Controller<2>> {
-    let beam = Beam::try_build(BeamParams::aluminium()).ok()?;
-    let model = ModalModel::<3>::try_build(&beam).ok()?;
-    let gains = SmcGains {
-        w: 20.0,
-        a: 10.0,
-        beta: 0.5,
-        c: 0.0,
-        switching: Switching::Tanh,
-        model_terms: false,
+#[cfg(target_os = "none")]
+mod drive {
+    use core::cell::RefCell;
+    use cortex_m::interrupt::Mutex;
+    use cortex_m::peripheral::syst::SystClkSource;
+    use cortex_m_rt::{entry, exception};
+    use model_core::{
+        Beam, BeamParams, ControlLaw, Controller, ControllerSettings, Law, ModalModel,
+        RawMeasurement, SmcGains, Spline, Switching,
     };
-    let law = ControlLaw::try_build(Law::Smc(gains), &model).ok()?;
-    let half_pi = core::f32::consts::FRAC_PI_2;
-    let spline = Spline::quintic(-half_pi, half_pi, 0.35).ok()?;
-    Controller::try_build(ControllerSettings::default(), law, spline).ok()
-}
+    use panic_halt as _;
 
-#[entry]
-fn main() -> ! {
-    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| loop {
-        cortex_m::asm::wfi();
-    });
-    let controller = build_controller();
-    cortex_m::interrupt::free(|cs| CONTROLLER.borrow(cs).replace(controller));
-    cp.SYST.set_clock_source(SystClkSource::Core);
-    cp.SYST.set_reload(CORE_HZ / LOOP_HZ - 1);
-    cp.SYST.clear_current();
-    cp.SYST.enable_counter();
-    cp.SYST.enable_interrupt();
-    loop {
-        cortex_m::asm::wfi();
+    /// Core clock after reset (HSI), Hz; the board issue raises it to 168 MHz.
+    const CORE_HZ: u32 = 16_000_000;
+    /// Control rate, Hz.
+    const LOOP_HZ: u32 = 1_000;
+
+    static CONTROLLER: Mutex<RefCell<Option<Controller<2>>>> = Mutex::new(RefCell::new(None));
+
+    /// Builds the controller; `None` if the compiled-in configuration is invalid.
+    fn build_controller() -> Option<Controller<2>> {
+        let beam = Beam::try_build(BeamParams::aluminium()).ok()?;
+        let model = ModalModel::<3>::try_build(&beam).ok()?;
+        let gains = SmcGains {
+            w: 20.0,
+            a: 10.0,
+            beta: 0.5,
+            c: 0.0,
+            switching: Switching::Tanh,
+            model_terms: false,
+        };
+        let law = ControlLaw::try_build(Law::Smc(gains), &model).ok()?;
+        let half_pi = core::f32::consts::FRAC_PI_2;
+        let spline = Spline::quintic(-half_pi, half_pi, 0.35).ok()?;
+        Controller::try_build(ControllerSettings::default(), law, spline).ok()
+    }
+
+    #[entry]
+    fn main() -> ! {
+        let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| loop {
+            cortex_m::asm::wfi();
+        });
+        let controller = build_controller();
+        cortex_m::interrupt::free(|cs| CONTROLLER.borrow(cs).replace(controller));
+        cp.SYST.set_clock_source(SystClkSource::Core);
+        cp.SYST.set_reload(CORE_HZ / LOOP_HZ - 1);
+        cp.SYST.clear_current();
+        cp.SYST.enable_counter();
+        cp.SYST.enable_interrupt();
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    #[exception]
+    fn SysTick() {
+        cortex_m::interrupt::free(|cs| {
+            if let Some(c) = CONTROLLER.borrow(cs).borrow_mut().as_mut() {
+                let out = c.step(&RawMeasurement::default());
+                // No amplifier yet: the command is computed and dropped.
+                core::hint::black_box(out.torque_nm);
+            }
+        });
     }
 }
 
-#[exception]
-fn SysTick() {
-    cortex_m::interrupt::free(|cs| {
-        if let Some(c) = CONTROLLER.borrow(cs).borrow_mut().as_mut() {
-            let out = c.step(&RawMeasurement::default());
-            // No amplifier yet: the command is computed and dropped.
-            core::hint::black_box(out.torque_nm);
-        }
-    });
+/// On the host this crate is only type-checked; the firmware is built with `cargo fw`.
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!("the firmware runs on thumbv7em-none-eabihf: build it with `cargo fw`");
+    std::process::exit(2);
 }

@@ -4,6 +4,9 @@
 //! eigenproblem by cyclic Jacobi rotations. Sizes are const generics so nothing allocates; the
 //! routines return `None` instead of panicking when a matrix is not positive definite.
 
+// Index loops read like the textbook formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
 /// A square `N x N` matrix, row-major.
 pub type Mat<const N: usize> = [[f64; N]; N];
 

@@ -285,6 +285,7 @@ impl<const N: usize> ModalModel<N> {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use crate::beam::{BeamParams, Preset};

@@ -1,1 +1,429 @@
-fn main() {}
+//! `beam`: the command line of the slewing-beam toolchain.
+//!
+//! `beam model` prints the modal model of a preset; `beam simulate` runs the paper's slew in
+//! closed loop with the model-core controller and prints the metrics, optionally writing the
+//! trace as CSV and the paper's figures as a plot. `--json` prints one JSON object on stdout.
+//! Errors print one line on stderr and exit with code 2.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use host_tests::metrics::{metrics, Metrics};
+use host_tests::sim::{simulate, SimOptions, SimResult};
+use host_tests::{io, plot};
+use model_core::{Beam, BeamParams, Law, ModalModel, PdGains, Preset, SmcGains, Switching};
+
+use serde_json::json;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "beam",
+    version,
+    about = "Sliding-mode control of a slewing flexible beam: model and simulation"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print the modal model of a preset: matrices and frequencies.
+    Model(ModelArgs),
+    /// Simulate the paper's slew (-90 to +90 deg in 0.35 s) in closed loop.
+    Simulate(SimulateArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PresetArg {
+    /// The paper's Table 1 as printed (EI 0.176 N m^2; the slew breaks the model).
+    Table1,
+    /// Table 1's aluminium strip with EI = E w t^3 / 12 (about 1.71 N m^2).
+    Aluminium,
+}
+
+impl From<PresetArg> for Preset {
+    fn from(p: PresetArg) -> Preset {
+        match p {
+            PresetArg::Table1 => Preset::Table1,
+            PresetArg::Aluminium => Preset::Aluminium,
+        }
+    }
+}
+
+#[derive(Args)]
+struct PlantArgs {
+    /// Parameter preset.
+    #[arg(long, value_enum, default_value = "aluminium")]
+    preset: PresetArg,
+    /// Number of flexible modes, 1 to 4.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=4))]
+    modes: u8,
+    /// Tip (payload) mass, kg.
+    #[arg(long, value_name = "KG")]
+    tip_mass: Option<f64>,
+}
+
+#[derive(Args)]
+struct ModelArgs {
+    #[command(flatten)]
+    plant: PlantArgs,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum ControllerArg {
+    /// PD baseline.
+    Pd,
+    /// The paper's SMC on the hub angle.
+    Smc,
+    /// SMC on theta + c * root strain.
+    SmcStrain,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SwitchingArg {
+    Tanh,
+    Sat,
+    Sign,
+}
+
+#[derive(Args)]
+struct SimulateArgs {
+    #[command(flatten)]
+    plant: PlantArgs,
+    /// Control law.
+    #[arg(long, value_enum, default_value = "smc")]
+    controller: ControllerArg,
+    /// PD proportional gain, N m/rad.
+    #[arg(long, allow_negative_numbers = true)]
+    kp: Option<f32>,
+    /// PD derivative gain, N m s/rad.
+    #[arg(long, allow_negative_numbers = true)]
+    kd: Option<f32>,
+    /// SMC surface slope W, 1/s.
+    #[arg(long, allow_negative_numbers = true)]
+    w: Option<f32>,
+    /// SMC switching gain A, rad/s^2.
+    #[arg(long, allow_negative_numbers = true)]
+    a: Option<f32>,
+    /// SMC boundary-layer slope beta, s/rad.
+    #[arg(long, allow_negative_numbers = true)]
+    beta: Option<f32>,
+    /// Strain blend c of smc-strain, rad per unit strain.
+    #[arg(long, allow_negative_numbers = true)]
+    c: Option<f32>,
+    /// Switching function.
+    #[arg(long, value_enum, default_value = "tanh")]
+    switching: SwitchingArg,
+    /// smc-strain: keep the model terms with q estimated from the root strain.
+    #[arg(long)]
+    model_terms: bool,
+    /// Simulated time, s.
+    #[arg(long, default_value_t = 2.0)]
+    duration: f64,
+    /// Seed of the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Write the trace as CSV.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Write the paper's figures 2-5 (.png or .svg).
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Hand-picked defaults for the aluminium preset, 3 modes (README, "Choosing the gains").
+const DEFAULT_SMC: SmcGains = host_tests::sim::HAND_PICKED_SMC;
+const DEFAULT_SMC_STRAIN: SmcGains = host_tests::sim::HAND_PICKED_SMC_STRAIN;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Model(a) => run_model(&a),
+        Command::Simulate(a) => run_simulate(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("beam: error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn beam(plant: &PlantArgs) -> Result<Beam, String> {
+    let mut params: BeamParams = Preset::from(plant.preset).params();
+    if let Some(m) = plant.tip_mass {
+        params.tip_mass_kg = m;
+    }
+    Beam::try_build(params).map_err(|e| e.to_string())
+}
+
+/// Calls `$f::<N>` with the runtime mode count `$n` (1 to 4) as a const generic.
+macro_rules! with_modes {
+    ($n:expr, $f:ident ( $($arg:expr),* )) => {
+        match $n {
+            1 => $f::<1>($($arg),*),
+            2 => $f::<2>($($arg),*),
+            3 => $f::<3>($($arg),*),
+            _ => $f::<4>($($arg),*),
+        }
+    };
+}
+
+fn run_model(a: &ModelArgs) -> Result<(), String> {
+    let beam = beam(&a.plant)?;
+    with_modes!(a.plant.modes, print_model(&beam, a))
+}
+
+fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> Result<(), String> {
+    let m = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
+    let p = beam.params();
+    let preset = Preset::from(a.plant.preset).name();
+    if a.json {
+        let rows = |x: &[[f64; N]; N]| x.iter().map(|r| r.to_vec()).collect::<Vec<_>>();
+        let v = json!({
+            "preset": preset, "modes": N, "ei": p.ei_nm2, "rho": m.rho_kg_m, "tip_mass": p.tip_mass_kg,
+            "mtt": m.mtt, "jeff": m.jeff, "h": m.h.to_vec(), "mqq": rows(&m.mqq), "kqq": rows(&m.kqq),
+            "g": rows(&m.g), "s": rows(&m.s), "clamped_hz": m.clamped_hz.to_vec(), "pinned_hz": m.pinned_hz.to_vec(),
+            "root_strain_coef": m.root_strain_coef.to_vec(), "tip_coef": m.tip_coef.to_vec(),
+        });
+        println!("{v}");
+        return Ok(());
+    }
+    println!("preset {preset}, {N} mode(s)");
+    println!(
+        "  EI {:.4} N m^2, rho {:.4} kg/m, tip mass {} kg",
+        p.ei_nm2, m.rho_kg_m, p.tip_mass_kg
+    );
+    println!("  Mtt {:.5e} kg m^2, Jeff {:.5e} kg m^2", m.mtt, m.jeff);
+    println!("  h   {:?}", m.h);
+    println!("  Mqq {:?}", m.mqq);
+    println!("  Kqq {:?}", m.kqq);
+    println!("  G   {:?}", m.g);
+    println!("  clamped Hz {:?}", m.clamped_hz);
+    println!("  pinned  Hz {:?}", m.pinned_hz);
+    Ok(())
+}
+
+fn law(a: &SimulateArgs) -> Result<Law, String> {
+    let reject = |flag: &str| {
+        Err(format!(
+            "--{flag} does not apply to --controller {}",
+            controller_name(a.controller)
+        ))
+    };
+    match a.controller {
+        ControllerArg::Pd => {
+            for (flag, set) in [
+                ("w", a.w.is_some()),
+                ("a", a.a.is_some()),
+                ("beta", a.beta.is_some()),
+                ("c", a.c.is_some()),
+            ] {
+                if set {
+                    return reject(flag);
+                }
+            }
+            let base = PdGains::BASELINE;
+            Ok(Law::Pd(PdGains {
+                kp: a.kp.unwrap_or(base.kp),
+                kd: a.kd.unwrap_or(base.kd),
+            }))
+        }
+        ControllerArg::Smc | ControllerArg::SmcStrain => {
+            for (flag, set) in [("kp", a.kp.is_some()), ("kd", a.kd.is_some())] {
+                if set {
+                    return reject(flag);
+                }
+            }
+            let strain = a.controller == ControllerArg::SmcStrain;
+            if !strain && (a.c.is_some() || a.model_terms) {
+                return reject(if a.c.is_some() { "c" } else { "model-terms" });
+            }
+            let base = if strain {
+                DEFAULT_SMC_STRAIN
+            } else {
+                DEFAULT_SMC
+            };
+            let g = SmcGains {
+                w: a.w.unwrap_or(base.w),
+                a: a.a.unwrap_or(base.a),
+                beta: a.beta.unwrap_or(base.beta),
+                c: if strain { a.c.unwrap_or(base.c) } else { 0.0 },
+                switching: match a.switching {
+                    SwitchingArg::Tanh => Switching::Tanh,
+                    SwitchingArg::Sat => Switching::Sat,
+                    SwitchingArg::Sign => Switching::Sign,
+                },
+                model_terms: a.model_terms,
+            };
+            Ok(if strain {
+                Law::SmcStrain(g)
+            } else {
+                Law::Smc(g)
+            })
+        }
+    }
+}
+
+fn controller_name(c: ControllerArg) -> &'static str {
+    match c {
+        ControllerArg::Pd => "pd",
+        ControllerArg::Smc => "smc",
+        ControllerArg::SmcStrain => "smc-strain",
+    }
+}
+
+fn run_simulate(a: &SimulateArgs) -> Result<(), String> {
+    let beam = beam(&a.plant)?;
+    let law = law(a)?;
+    if !(a.duration.is_finite() && a.duration > 0.0 && a.duration <= 3600.0) {
+        return Err(format!(
+            "--duration {} must be a number of seconds in (0, 3600]",
+            a.duration
+        ));
+    }
+    let opts = SimOptions {
+        duration_s: a.duration,
+        sensors: host_tests::sensors::SensorConfig {
+            seed: a.seed,
+            ..Default::default()
+        },
+        ..SimOptions::default()
+    };
+    if let Some(path) = &a.plot {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("png" | "svg")) {
+            return Err(format!(
+                "--plot {}: the file must end in .png or .svg",
+                path.display()
+            ));
+        }
+    }
+    let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;
+    let m = metrics(&run);
+    let preset = Preset::from(a.plant.preset).name();
+    if let Some(path) = &a.csv {
+        io::write_atomically(path, |w| io::write_trace_csv(&run, w))
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    if let Some(path) = &a.plot {
+        let title = format!(
+            "{} slew, {} preset, {} modes",
+            law.name(),
+            preset,
+            a.plant.modes
+        );
+        io::plot_atomically(path, |tmp| plot::plot(&run, &title, tmp))?;
+    }
+    let gains = gains_json(&law);
+    let reason = run.breakdown.as_ref().map(|(_, why)| why.to_string());
+    if a.json {
+        let mut v = serde_json::to_value(&m).map_err(|e| e.to_string())?;
+        let o = v.as_object_mut().ok_or("metrics are not an object")?;
+        o.insert("preset".into(), json!(preset));
+        o.insert("modes".into(), json!(a.plant.modes));
+        o.insert("controller".into(), json!(law.name()));
+        o.insert("gains".into(), gains);
+        o.insert("breakdown_reason".into(), json!(reason));
+        o.insert("faults".into(), json!(run.faults));
+        println!("{v}");
+    } else {
+        print_summary(&m, &run, &law, preset, a.plant.modes, reason.as_deref());
+    }
+    Ok(())
+}
+
+fn simulate_n<const N: usize>(
+    beam: &Beam,
+    law: Law,
+    opts: &SimOptions,
+) -> Result<SimResult, String> {
+    let model = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
+    simulate(&model, law, opts).map_err(|e| e.to_string())
+}
+
+fn gains_json(law: &Law) -> serde_json::Value {
+    // An f32 gain printed through f64 would show 0.1 as 0.10000000149011612: go by its
+    // shortest decimal form instead.
+    let f = |x: f32| x.to_string().parse::<f64>().unwrap_or(f64::NAN);
+    match law {
+        Law::Pd(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
+        Law::Smc(g) | Law::SmcStrain(g) => json!({
+            "w": f(g.w), "a": f(g.a), "beta": f(g.beta), "c": f(g.c), "switching": g.switching.name(),
+            "model_terms": g.model_terms,
+        }),
+    }
+}
+
+fn print_summary(
+    m: &Metrics,
+    run: &SimResult,
+    law: &Law,
+    preset: &str,
+    modes: u8,
+    reason: Option<&str>,
+) {
+    println!(
+        "{} slew on the {preset} preset, {modes} mode(s), gains {}",
+        law.name(),
+        gains_json(law)
+    );
+    if let (Some((t, _)), Some(why)) = (&run.breakdown, reason) {
+        println!("  MODEL BREAKDOWN at t = {t:.3} s: {why}");
+        println!("  no metrics are reported for a run outside the model's range");
+        return;
+    }
+    let show = |v: Option<f64>, unit: &str| {
+        v.map_or("n/a (run too short)".to_string(), |v| {
+            format!("{v:.4} {unit}")
+        })
+    };
+    println!(
+        "  max tracking error 0..0.35 s   {}",
+        show(m.max_track_err_deg, "deg")
+    );
+    println!(
+        "  hub error at 0.6 s             {}",
+        show(m.err_deg_t0_6, "deg")
+    );
+    println!(
+        "  hub error at 2.0 s             {}",
+        show(m.err_deg_t2_0, "deg")
+    );
+    println!(
+        "  max root strain after move     {}",
+        show(m.max_root_strain_ue_after_move, "ue")
+    );
+    println!(
+        "  RMS root strain 0.4..0.6 s     {}",
+        show(m.rms_root_strain_ue_0_4_0_6, "ue")
+    );
+    println!(
+        "  max mid strain after move      {}",
+        show(m.max_mid_strain_ue_after_move, "ue")
+    );
+    println!(
+        "  peak torque                    {}",
+        show(m.peak_torque_nm, "N m")
+    );
+    println!(
+        "  tip settled within 0.5 deg at  {}",
+        m.settle_s
+            .map_or("never (within the run)".to_string(), |v| format!(
+                "{v:.3} s"
+            ))
+    );
+    println!("  cost J (W1 1, W2 10)           {}", show(m.cost_j, ""));
+    println!("  faults                         {}", run.faults);
+}

@@ -1,0 +1,76 @@
+//! Output files written whole or not at all: each is written to a temporary file beside its
+//! destination and renamed into place, so an error never leaves a partial file behind.
+
+use crate::sim::SimResult;
+use std::fs;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// A temporary path in the same directory as `path` (so the rename stays on one file system),
+/// keeping the extension (the plot backends choose the format by it).
+fn temp_beside(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp{ext}", std::process::id()))
+}
+
+/// Writes `path` through `fill`, atomically.
+pub fn write_atomically(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> io::Result<()> {
+    let tmp = temp_beside(path);
+    let result = (|| {
+        let mut w = BufWriter::new(fs::File::create(&tmp)?);
+        fill(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()
+    })();
+    match result.and_then(|()| fs::rename(&tmp, path)) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let _ = fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
+}
+
+/// Draws a plot through `draw` (given a temporary path) and renames it to `path`.
+pub fn plot_atomically(
+    path: &Path,
+    draw: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), String> {
+    let tmp = temp_beside(path);
+    let out = draw(&tmp).and_then(|()| fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    if out.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    out.map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The trace as CSV: the columns `beam calibrate` reads (time, torque, hub angle, root
+/// strain, mid-span strain) and the rest of the recorded state. SI units.
+pub fn write_trace_csv(run: &SimResult, w: &mut dyn Write) -> io::Result<()> {
+    writeln!(w, "t_s,torque_nm,theta_rad,root_strain,mid_strain,theta_ref_rad,omega_rad_s,w_tip_m,tip_angle_rad")?;
+    for s in &run.samples {
+        writeln!(
+            w,
+            "{},{},{},{},{},{},{},{},{}",
+            s.t,
+            s.torque,
+            s.theta,
+            s.root_strain,
+            s.mid_strain,
+            s.theta_ref,
+            s.omega,
+            s.w_tip,
+            s.tip_angle
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,143 @@
+//! The slew's figures of merit, computed from the true plant signals of a run.
+//!
+//! Windows follow the paper: tracking over the move (0..0.35 s), residual vibration after it,
+//! the cost J with hub error over 0..0.6 s and root strain over 0.4..0.6 s (W1 = 1, W2 = 10,
+//! angle in radians, strain in microstrain). A run the validity guard stopped has no metrics:
+//! only the breakdown time is reported, never numbers from outside the model's range.
+
+use crate::sim::{SimResult, SLEW_TIME_S};
+use serde::Serialize;
+
+/// Band around the target the tip angle must stay in to count as settled, deg.
+pub const SETTLE_BAND_DEG: f64 = 0.5;
+
+/// Weights and windows of the paper's cost J.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CostSpec {
+    /// Weight of the hub error term.
+    pub w1: f64,
+    /// Weight of the root strain term.
+    pub w2: f64,
+    /// Hub error window, s.
+    pub angle_window: (f64, f64),
+    /// Root strain window, s.
+    pub strain_window: (f64, f64),
+}
+
+impl Default for CostSpec {
+    fn default() -> Self {
+        Self {
+            w1: 1.0,
+            w2: 10.0,
+            angle_window: (0.0, 0.6),
+            strain_window: (0.4, 0.6),
+        }
+    }
+}
+
+/// The metrics `beam simulate --json` prints. `None` (JSON null) where the run is too short
+/// or stopped by the validity guard.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Metrics {
+    /// max |theta - theta_r| over 0..0.35 s, deg.
+    pub max_track_err_deg: Option<f64>,
+    /// |theta - theta_final| at 0.6 s, deg.
+    pub err_deg_t0_6: Option<f64>,
+    /// |theta - theta_final| at 2.0 s, deg.
+    pub err_deg_t2_0: Option<f64>,
+    /// max |root strain| from 0.35 s to the end, microstrain.
+    pub max_root_strain_ue_after_move: Option<f64>,
+    /// RMS root strain over 0.4..0.6 s, microstrain.
+    pub rms_root_strain_ue_0_4_0_6: Option<f64>,
+    /// max |mid-span strain| from 0.35 s to the end, microstrain.
+    pub max_mid_strain_ue_after_move: Option<f64>,
+    /// max |torque|, N m.
+    pub peak_torque_nm: Option<f64>,
+    /// First time after which the tip angle stays within 0.5 deg of the target, s.
+    pub settle_s: Option<f64>,
+    /// The paper's cost J.
+    pub cost_j: Option<f64>,
+    /// When the validity guard stopped the run, s.
+    pub breakdown_at_s: Option<f64>,
+}
+
+const UE: f64 = 1e6;
+
+/// Computes the metrics of `run`.
+pub fn metrics(run: &SimResult) -> Metrics {
+    if let Some((t, _)) = &run.breakdown {
+        return Metrics {
+            breakdown_at_s: Some(*t),
+            ..Metrics::default()
+        };
+    }
+    let s = &run.samples;
+    let end = s.last().map_or(0.0, |x| x.t);
+    let dt = if s.len() > 1 { s[1].t - s[0].t } else { 0.0 };
+    let in_window = |a: f64, b: f64| s.iter().filter(move |x| x.t >= a - 1e-9 && x.t <= b + 1e-9);
+    let max_abs = |it: &mut dyn Iterator<Item = f64>| {
+        it.map(f64::abs)
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))
+    };
+    let at = |t: f64| -> Option<f64> {
+        if t > end + 1e-9 {
+            return None;
+        }
+        let k = (t / dt).round() as usize;
+        s.get(k)
+            .map(|x| (x.theta - run.theta_final).abs().to_degrees())
+    };
+    let after_move = SLEW_TIME_S;
+    let has_after = end >= after_move;
+    let rms = {
+        let v: Vec<f64> = in_window(0.4, 0.6).map(|x| x.root_strain * UE).collect();
+        (end >= 0.6 && !v.is_empty())
+            .then(|| (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt())
+    };
+    let band = SETTLE_BAND_DEG.to_radians();
+    let settle_s = match s
+        .iter()
+        .rposition(|x| (x.tip_angle - run.theta_final).abs() > band)
+    {
+        None => Some(0.0),
+        Some(k) if k + 1 < s.len() => Some(s[k + 1].t),
+        Some(_) => None,
+    };
+    Metrics {
+        max_track_err_deg: max_abs(
+            &mut in_window(0.0, SLEW_TIME_S).map(|x| (x.theta - x.theta_ref).to_degrees()),
+        ),
+        err_deg_t0_6: at(0.6),
+        err_deg_t2_0: at(2.0),
+        max_root_strain_ue_after_move: has_after
+            .then(|| max_abs(&mut in_window(after_move, end).map(|x| x.root_strain * UE)))
+            .flatten(),
+        rms_root_strain_ue_0_4_0_6: rms,
+        max_mid_strain_ue_after_move: has_after
+            .then(|| max_abs(&mut in_window(after_move, end).map(|x| x.mid_strain * UE)))
+            .flatten(),
+        peak_torque_nm: max_abs(&mut s.iter().map(|x| x.torque)),
+        settle_s,
+        cost_j: (end >= 0.6).then(|| cost(run, &CostSpec::default())),
+        breakdown_at_s: None,
+    }
+}
+
+/// The paper's J for `run`: W1 int e1^2 dt + W2 int e2^2 dt, e1 = theta - theta_final (rad),
+/// e2 = root strain (microstrain), by the rectangle rule on the tick grid.
+pub fn cost(run: &SimResult, spec: &CostSpec) -> f64 {
+    let s = &run.samples;
+    let dt = if s.len() > 1 { s[1].t - s[0].t } else { 0.0 };
+    let within = |t: f64, (a, b): (f64, f64)| t >= a - 1e-9 && t < b - 1e-9;
+    let e1: f64 = s
+        .iter()
+        .filter(|x| within(x.t, spec.angle_window))
+        .map(|x| (x.theta - run.theta_final).powi(2))
+        .sum();
+    let e2: f64 = s
+        .iter()
+        .filter(|x| within(x.t, spec.strain_window))
+        .map(|x| (x.root_strain * UE).powi(2))
+        .sum();
+    (spec.w1 * e1 + spec.w2 * e2) * dt
+}

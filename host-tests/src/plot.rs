@@ -1,0 +1,119 @@
+//! The paper's figures 2-5 as one image: hub angle with its reference, hub velocity, root
+//! strain and mid-span strain against time. PNG or SVG, chosen by the file's extension.
+
+use crate::sim::SimResult;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// Draws `run` into `path` (`.png` or `.svg`), titled `title`.
+pub fn plot(run: &SimResult, title: &str, path: &Path) -> Result<(), String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let size = (1200, 900);
+    match ext.as_deref() {
+        Some("png") => {
+            let root = BitMapBackend::new(path, size).into_drawing_area();
+            draw(run, title, &root)?;
+            root.present().map_err(|e| e.to_string())
+        }
+        Some("svg") => {
+            let root = SVGBackend::new(path, size).into_drawing_area();
+            draw(run, title, &root)?;
+            root.present().map_err(|e| e.to_string())
+        }
+        _ => Err(format!(
+            "plot file {} must end in .png or .svg",
+            path.display()
+        )),
+    }
+}
+
+type Series<'a> = (&'a str, Vec<(f64, f64)>, RGBColor);
+
+fn draw<DB: DrawingBackend>(
+    run: &SimResult,
+    title: &str,
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(title, ("sans-serif", 24))
+        .map_err(|e| err(&e))?;
+    let panels = root.split_evenly((2, 2));
+    let s = &run.samples;
+    let col = |f: fn(&crate::sim::Sample) -> f64| s.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
+    let figures: [(&str, &str, Vec<Series>); 4] = [
+        (
+            "Hub angle",
+            "deg",
+            vec![
+                ("reference", col(|x| x.theta_ref.to_degrees()), RED),
+                ("hub", col(|x| x.theta.to_degrees()), BLUE),
+            ],
+        ),
+        (
+            "Hub velocity",
+            "deg/s",
+            vec![("hub", col(|x| x.omega.to_degrees()), BLUE)],
+        ),
+        (
+            "Root strain",
+            "microstrain",
+            vec![("root", col(|x| x.root_strain * 1e6), BLUE)],
+        ),
+        (
+            "Mid-span strain",
+            "microstrain",
+            vec![("mid", col(|x| x.mid_strain * 1e6), BLUE)],
+        ),
+    ];
+    let t_end = s.last().map_or(1.0, |x| x.t).max(1e-3);
+    for (area, (name, unit, series)) in panels.iter().zip(figures) {
+        let (lo, hi) = series
+            .iter()
+            .flat_map(|(_, v, _)| v.iter().map(|p| p.1))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| {
+                (a.min(y), b.max(y))
+            });
+        let (lo, hi) = if lo.is_finite() && hi > lo {
+            (lo, hi)
+        } else {
+            (lo.min(0.0) - 1.0, hi.max(0.0) + 1.0)
+        };
+        let pad = 0.05 * (hi - lo);
+        let mut chart = ChartBuilder::on(area)
+            .caption(name, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("time, s")
+            .y_desc(unit)
+            .draw()
+            .map_err(|e| err(&e))?;
+        for (label, data, color) in series {
+            chart
+                .draw_series(LineSeries::new(data, color.stroke_width(2)))
+                .map_err(|e| err(&e))?
+                .label(label)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,127 @@
+//! Simulated sensors: they turn the plant's true state into the raw readings the drive's
+//! hardware gives, using the same [`EncoderSpec`] and [`AdcSpec`] the controller decodes with.
+//!
+//! The encoder is quantised to whole counts and seen through a wrapping hardware counter; the
+//! strain bridge is an ADC code with an offset, seeded Gaussian noise, rounding and clipping
+//! at the rails. Seeded, so every run is reproducible.
+
+use model_core::{AdcSpec, EncoderSpec, RawMeasurement};
+use rand::{rngs::StdRng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+/// Configuration of the simulated sensors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorConfig {
+    /// Encoder and counter.
+    pub encoder: EncoderSpec,
+    /// Strain ADC.
+    pub adc: AdcSpec,
+    /// The ADC code at zero strain (the bridge's offset).
+    pub adc_offset_code: i32,
+    /// Standard deviation of the strain noise (dimensionless strain).
+    pub strain_noise_std: f64,
+    /// Seed of the noise generator.
+    pub seed: u64,
+}
+
+impl Default for SensorConfig {
+    fn default() -> Self {
+        Self {
+            encoder: EncoderSpec::DEFAULT,
+            adc: AdcSpec::DEFAULT,
+            adc_offset_code: 1234,
+            strain_noise_std: 0.5e-6,
+            seed: 1,
+        }
+    }
+}
+
+/// The simulated sensor set.
+#[derive(Clone, Debug)]
+pub struct Sensors {
+    cfg: SensorConfig,
+    theta_home: f64,
+    noise: Normal<f64>,
+    rng: StdRng,
+}
+
+impl Sensors {
+    /// Sensors whose encoder counter reads zero at hub angle `theta_home`.
+    pub fn new(cfg: SensorConfig, theta_home: f64) -> Self {
+        let std = if cfg.strain_noise_std.is_finite() && cfg.strain_noise_std > 0.0 {
+            cfg.strain_noise_std
+        } else {
+            0.0
+        };
+        Self {
+            cfg,
+            theta_home,
+            noise: Normal::new(0.0, std)
+                .unwrap_or(Normal::new(0.0, 0.0).expect("zero std is valid")),
+            rng: StdRng::seed_from_u64(cfg.seed),
+        }
+    }
+
+    /// The encoder count (unwrapped, quantised toward minus infinity) at hub angle `theta`.
+    pub fn count(&self, theta: f64) -> i64 {
+        ((theta - self.theta_home) / self.cfg.encoder.rad_per_count()).floor() as i64
+    }
+
+    /// The raw readings for hub angle `theta` and root strain `strain`.
+    pub fn read(&mut self, theta: f64, strain: f64, amp_fault: bool) -> RawMeasurement {
+        let raw_counter = (self.count(theta) as u64 & self.cfg.encoder.mask() as u64) as u32;
+        let noisy = strain + self.noise.sample(&mut self.rng);
+        let code =
+            (noisy / self.cfg.adc.strain_per_code()).round() + self.cfg.adc_offset_code as f64;
+        let code = code.clamp(
+            self.cfg.adc.min_code() as f64,
+            self.cfg.adc.max_code() as f64,
+        ) as i32;
+        RawMeasurement {
+            encoder_raw: raw_counter,
+            strain_root_code: code,
+            amp_fault,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SensorConfig {
+        &self.cfg
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn encoder_quantises_and_wraps_the_16_bit_counter() {
+        let s = Sensors::new(SensorConfig::default(), 0.0);
+        let per_rev = 16384.0;
+        let step = 2.0 * std::f64::consts::PI / per_rev;
+        assert_eq!(s.count(10.5 * step), 10);
+        assert_eq!(s.count(-0.5 * step), -1);
+        // Five revolutions = 81920 counts = 16384 modulo 65536.
+        let mut s = s;
+        let raw = s.read(5.0 * 2.0 * std::f64::consts::PI + 0.5 * step, 0.0, false);
+        assert_eq!(raw.encoder_raw, 81920 % 65536);
+    }
+
+    #[test]
+    fn adc_codes_clip_at_the_rails() {
+        let cfg = SensorConfig {
+            strain_noise_std: 0.0,
+            ..Default::default()
+        };
+        let mut s = Sensors::new(cfg, 0.0);
+        assert_eq!(s.read(0.0, 0.0, false).strain_root_code, 1234);
+        assert_eq!(
+            s.read(0.0, 1.0, false).strain_root_code,
+            AdcSpec::DEFAULT.max_code()
+        );
+        assert_eq!(
+            s.read(0.0, -1.0, false).strain_root_code,
+            AdcSpec::DEFAULT.min_code()
+        );
+    }
+}

@@ -1,0 +1,267 @@
+//! The closed-loop runner: the continuous plant, the simulated sensors, and the model-core
+//! controller sampled at its tick with a zero-order hold on the torque.
+//!
+//! Each tick the plant's state is read by the sensors into a [`RawMeasurement`], handed to
+//! exactly the `Controller::step` the firmware calls, and the returned torque is held while the
+//! plant is integrated to the next tick. The validity guard runs after every tick and ends the
+//! run with a [`Breakdown`] rather than let numbers from outside the model through.
+
+use crate::plant::{Breakdown, Plant, State};
+use crate::sensors::{SensorConfig, Sensors};
+use model_core::controller::ConfigError;
+use model_core::{
+    ControlLaw, Controller, ControllerSettings, Law, ModalModel, Mode, SmcGains, Spline, Switching,
+};
+use std::fmt;
+
+/// Start and end of the paper's slew, rad, and its duration AT, s.
+pub const SLEW_FROM_RAD: f64 = -std::f64::consts::FRAC_PI_2;
+/// End of the paper's slew, rad.
+pub const SLEW_TO_RAD: f64 = std::f64::consts::FRAC_PI_2;
+/// The paper's move time AT, s.
+pub const SLEW_TIME_S: f64 = 0.35;
+
+/// The paper's SMC gains picked by hand for the aluminium preset with 3 modes: a grid over
+/// W, A, beta ranked by the tip's settling time (README, "Choosing the gains").
+pub const HAND_PICKED_SMC: SmcGains = SmcGains {
+    w: 10.0,
+    a: 1000.0,
+    beta: 0.1,
+    c: 0.0,
+    switching: Switching::Tanh,
+    model_terms: false,
+};
+
+/// The strain-augmented SMC's hand-picked gains, chosen the same way.
+pub const HAND_PICKED_SMC_STRAIN: SmcGains = SmcGains {
+    a: 600.0,
+    c: 10.0,
+    ..HAND_PICKED_SMC
+};
+
+/// Knot capacity of the moves the host runs.
+pub const MOVE_CAPACITY: usize = 8;
+
+/// How the plant is integrated between ticks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integrator {
+    /// Fixed-step RK4 with this many steps per controller tick.
+    Rk4 {
+        /// Steps per tick.
+        substeps: u32,
+    },
+    /// The adaptive DOP853 reference at these tolerances.
+    Dop853 {
+        /// Relative tolerance.
+        rtol: f64,
+        /// Absolute tolerance.
+        atol: f64,
+    },
+}
+
+impl Default for Integrator {
+    fn default() -> Self {
+        // 0.25 ms steps: h * omega_max is about 0.3 for the aluminium beam's fourth mode
+        // (about 190 Hz), well inside RK4's stability region; the agreement test with DOP853
+        // bounds the error.
+        Integrator::Rk4 { substeps: 4 }
+    }
+}
+
+/// Options of one closed-loop run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimOptions {
+    /// Simulated time after the move starts, s.
+    pub duration_s: f64,
+    /// Plant integrator.
+    pub integrator: Integrator,
+    /// Idle ticks before the move starts (the controller measures the strain offset).
+    pub idle_ticks: u32,
+    /// Simulated sensors.
+    pub sensors: SensorConfig,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self {
+            duration_s: 2.0,
+            integrator: Integrator::default(),
+            idle_ticks: 50,
+            sensors: SensorConfig::default(),
+        }
+    }
+}
+
+/// One recorded tick: the true plant state and what the controller did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Time since the move started, s.
+    pub t: f64,
+    /// Hub angle, rad.
+    pub theta: f64,
+    /// Hub rate, rad/s.
+    pub omega: f64,
+    /// Reference angle, rad.
+    pub theta_ref: f64,
+    /// Torque applied over the next tick, N m.
+    pub torque: f64,
+    /// True root strain.
+    pub root_strain: f64,
+    /// True mid-span strain.
+    pub mid_strain: f64,
+    /// Tip deflection, m.
+    pub w_tip: f64,
+    /// Tip angle, rad.
+    pub tip_angle: f64,
+    /// Controller mode after the tick.
+    pub mode: Mode,
+}
+
+/// A finished run.
+#[derive(Clone, Debug)]
+pub struct SimResult {
+    /// One sample per tick from t = 0.
+    pub samples: Vec<Sample>,
+    /// Set when the validity guard stopped the run: when, and why.
+    pub breakdown: Option<(f64, Breakdown)>,
+    /// The move's final angle, rad.
+    pub theta_final: f64,
+    /// The controller's latched faults at the end (as text; "none" if none).
+    pub faults: String,
+}
+
+/// A run that could not start.
+#[derive(Debug)]
+pub enum SimError {
+    /// The gains or settings were rejected.
+    Config(ConfigError),
+    /// The move was rejected.
+    Spline(model_core::SplineError),
+    /// An option is out of range.
+    Option(&'static str),
+}
+
+impl fmt::Display for SimError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SimError::Config(e) => write!(f, "{e}"),
+            SimError::Spline(e) => write!(f, "move: {e}"),
+            SimError::Option(what) => write!(f, "{what}"),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+/// Controller settings matching the plant and sensors: the torque limit of the beam, the
+/// encoder and ADC specs of the sensors, the home angle of the slew's start.
+pub fn settings_for<const N: usize>(
+    model: &ModalModel<N>,
+    sensors: &SensorConfig,
+) -> ControllerSettings {
+    ControllerSettings {
+        encoder: sensors.encoder,
+        adc: sensors.adc,
+        theta_home_rad: SLEW_FROM_RAD as f32,
+        torque_limit_nm: model.beam.params().torque_limit_nm as f32,
+        ..ControllerSettings::default()
+    }
+}
+
+/// The paper's slew (-90 to +90 deg in 0.35 s, quintic).
+pub fn paper_slew() -> Result<Spline<MOVE_CAPACITY>, SimError> {
+    Spline::quintic(SLEW_FROM_RAD as f32, SLEW_TO_RAD as f32, SLEW_TIME_S as f32)
+        .map_err(SimError::Spline)
+}
+
+/// Runs the paper's slew on `model` under `law`.
+pub fn simulate<const N: usize>(
+    model: &ModalModel<N>,
+    law: Law,
+    opts: &SimOptions,
+) -> Result<SimResult, SimError> {
+    let settings = settings_for(model, &opts.sensors);
+    let law = ControlLaw::try_build(law, model).map_err(|e| SimError::Config(e.into()))?;
+    let controller =
+        Controller::try_build(settings, law, paper_slew()?).map_err(SimError::Config)?;
+    run(Plant::new(*model), controller, opts)
+}
+
+/// Runs `controller` against `plant` from rest at the move's start.
+pub fn run<const N: usize, const K: usize>(
+    plant: Plant<N>,
+    mut controller: Controller<K>,
+    opts: &SimOptions,
+) -> Result<SimResult, SimError> {
+    if !(opts.duration_s.is_finite() && opts.duration_s > 0.0 && opts.duration_s <= 3600.0) {
+        return Err(SimError::Option(
+            "duration must be a finite number of seconds in (0, 3600]",
+        ));
+    }
+    let ts = controller.settings().ts_s as f64;
+    let theta_home = controller.settings().theta_home_rad as f64;
+    let mut sensors = Sensors::new(opts.sensors, theta_home);
+    let mut x = State::<N>::at_rest(controller.spline().start() as f64);
+    let read = |x: &State<N>, sensors: &mut Sensors| {
+        sensors.read(x.theta, plant.outputs(x).root_strain, false)
+    };
+
+    for _ in 0..opts.idle_ticks {
+        let raw = read(&x, &mut sensors);
+        controller.step(&raw);
+    }
+    if controller.start_move().is_err() {
+        return Err(SimError::Option(
+            "the controller faulted while idle before the move",
+        ));
+    }
+    let ticks = (opts.duration_s / ts).round() as usize;
+    let mut samples = Vec::with_capacity(ticks + 1);
+    let mut breakdown = None;
+    for k in 0..=ticks {
+        let t = k as f64 * ts;
+        let raw = read(&x, &mut sensors);
+        let cmd = controller.step(&raw);
+        let tau = plant.saturate(cmd.torque_nm as f64);
+        let out = plant.outputs(&x);
+        samples.push(Sample {
+            t,
+            theta: x.theta,
+            omega: x.omega,
+            theta_ref: controller.spline().eval(t as f32).pos as f64,
+            torque: tau,
+            root_strain: out.root_strain,
+            mid_strain: out.mid_strain,
+            w_tip: out.w_tip,
+            tip_angle: out.tip_angle,
+            mode: cmd.mode,
+        });
+        if k == ticks {
+            break;
+        }
+        x = match opts.integrator {
+            Integrator::Rk4 { substeps } => {
+                let n = substeps.max(1);
+                let h = ts / n as f64;
+                (0..n).fold(x, |x, _| plant.rk4_step(&x, tau, h))
+            }
+            Integrator::Dop853 { rtol, atol } => match plant.dop853(&x, tau, ts, rtol, atol) {
+                Ok(next) => next,
+                Err(_) => {
+                    breakdown = Some((t + ts, Breakdown::NonFinite));
+                    break;
+                }
+            },
+        };
+        if let Err(why) = plant.check_validity(&x) {
+            breakdown = Some((t + ts, why));
+            break;
+        }
+    }
+    Ok(SimResult {
+        samples,
+        breakdown,
+        theta_final: controller.spline().end() as f64,
+        faults: controller.faults().to_string(),
+    })
+}

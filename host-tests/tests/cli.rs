@@ -1,0 +1,209 @@
+//! The `beam` binary as a user runs it: JSON keys, exit codes, files written whole.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn beam(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_beam"))
+        .args(args)
+        .output()
+        .expect("run beam")
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("beam-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn model_json_has_every_key_for_each_preset_and_mode_count() {
+    for preset in ["table1", "aluminium"] {
+        for modes in 1..=4 {
+            let v = json(&beam(&[
+                "model",
+                "--preset",
+                preset,
+                "--modes",
+                &modes.to_string(),
+                "--json",
+            ]));
+            for key in [
+                "preset",
+                "modes",
+                "ei",
+                "rho",
+                "mtt",
+                "jeff",
+                "h",
+                "mqq",
+                "kqq",
+                "g",
+                "clamped_hz",
+                "pinned_hz",
+            ] {
+                assert!(v.get(key).is_some(), "{preset} {modes}: no `{key}`");
+            }
+            assert_eq!(v["clamped_hz"].as_array().unwrap().len(), modes);
+            assert_eq!(v["mqq"].as_array().unwrap().len(), modes);
+            assert_eq!(v["preset"], preset);
+        }
+    }
+}
+
+#[test]
+fn simulate_json_reports_metrics_or_a_breakdown() {
+    let keys = [
+        "max_track_err_deg",
+        "err_deg_t0_6",
+        "err_deg_t2_0",
+        "max_root_strain_ue_after_move",
+        "rms_root_strain_ue_0_4_0_6",
+        "max_mid_strain_ue_after_move",
+        "peak_torque_nm",
+        "settle_s",
+        "cost_j",
+        "breakdown_at_s",
+    ];
+    let v = json(&beam(&[
+        "simulate",
+        "--preset",
+        "aluminium",
+        "--modes",
+        "3",
+        "--controller",
+        "pd",
+        "--kp",
+        "20",
+        "--kd",
+        "1",
+        "--json",
+    ]));
+    for k in keys {
+        assert!(v.get(k).is_some(), "no `{k}`");
+    }
+    assert!(v["breakdown_at_s"].is_null() && v["cost_j"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["gains"]["kp"], 20.0);
+    let v = json(&beam(&[
+        "simulate",
+        "--preset",
+        "table1",
+        "--controller",
+        "smc",
+        "--json",
+    ]));
+    assert!(v["breakdown_at_s"].as_f64().unwrap() > 0.0);
+    assert!(v["cost_j"].is_null() && v["rms_root_strain_ue_0_4_0_6"].is_null());
+}
+
+#[test]
+fn simulate_writes_the_csv_and_both_plot_formats() {
+    let dir = scratch("files");
+    let (csv, png, svg) = (
+        dir.join("run.csv"),
+        dir.join("run.png"),
+        dir.join("run.svg"),
+    );
+    for plot in [&png, &svg] {
+        let out = beam(&[
+            "simulate",
+            "--controller",
+            "smc-strain",
+            "--modes",
+            "2",
+            "--duration",
+            "0.7",
+            "--csv",
+            csv.to_str().unwrap(),
+            "--plot",
+            plot.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(std::fs::metadata(plot).unwrap().len() > 1000);
+    }
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert!(lines
+        .next()
+        .unwrap()
+        .starts_with("t_s,torque_nm,theta_rad,root_strain,mid_strain"));
+    assert_eq!(lines.count(), 701, "0.7 s at 1 kHz, both ends included");
+    // Nothing temporary is left beside the outputs.
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 3, "{names:?}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn bad_input_exits_2_with_one_line_and_writes_nothing() {
+    let dir = scratch("bad");
+    let csv = dir.join("x.csv");
+    let csv_arg = csv.to_str().unwrap();
+    let cases: [&[&str]; 8] = [
+        &["model", "--modes", "5"],
+        &["model", "--preset", "steel"],
+        &["simulate", "--duration", "nan", "--csv", csv_arg],
+        &["simulate", "--duration", "-1", "--csv", csv_arg],
+        &[
+            "simulate",
+            "--controller",
+            "pd",
+            "--w",
+            "3",
+            "--csv",
+            csv_arg,
+        ],
+        &["simulate", "--w", "0", "--csv", csv_arg],
+        &["simulate", "--tip-mass", "-0.1", "--csv", csv_arg],
+        &[
+            "simulate",
+            "--plot",
+            "/nonexistent-dir/x.png",
+            "--csv",
+            csv_arg,
+        ],
+    ];
+    for args in cases {
+        let out = beam(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.trim().is_empty(), "{args:?}: silent");
+        assert!(
+            out.stdout.is_empty(),
+            "{args:?}: printed {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+    // Our own validation errors are one line naming the culprit.
+    let out = beam(&["simulate", "--w", "0"]);
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "beam: error: `w` must be > 0"
+    );
+    // A failed plot must not leave the CSV written before it half-done or renamed.
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(
+        leftovers.iter().all(|n| n.to_string_lossy() == "x.csv"),
+        "{leftovers:?}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
