@@ -13,7 +13,10 @@ fn model<const N: usize>() -> ModalModel<N> {
 }
 
 fn closed_loop(c: &mut Criterion) {
-    let opts = SimOptions { duration_s: 2.0, ..SimOptions::default() };
+    let opts = SimOptions {
+        duration_s: 2.0,
+        ..SimOptions::default()
+    };
     let m1 = model::<1>();
     let m3 = model::<3>();
     c.bench_function("closed loop 2 s, 1 mode, SMC", |b| {
@@ -32,8 +35,14 @@ fn controller_step(c: &mut Criterion) {
     ctl.step(&RawMeasurement::default());
     ctl.start_move().unwrap();
     // Hold the hub still mid-move: the law runs in full every tick and nothing faults.
-    let raw = RawMeasurement { encoder_raw: 0, strain_root_code: 100, amp_fault: false };
-    c.bench_function("controller step (paper SMC)", |b| b.iter(|| black_box(ctl.step(black_box(&raw)))));
+    let raw = RawMeasurement {
+        encoder_raw: 0,
+        strain_root_code: 100,
+        amp_fault: false,
+    };
+    c.bench_function("controller step (paper SMC)", |b| {
+        b.iter(|| black_box(ctl.step(black_box(&raw))))
+    });
 }
 
 criterion_group!(benches, closed_loop, controller_step);

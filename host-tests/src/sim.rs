@@ -1,7 +1,7 @@
 //! The closed-loop runner: the continuous plant, the simulated sensors, and the model-core
 //! controller sampled at its tick with a zero-order hold on the torque.
 //!
-//! Each tick the plant's state is read by the sensors into a [`RawMeasurement`], handed to
+//! Each tick the plant's state is read by the sensors into a [`model_core::RawMeasurement`], handed to
 //! exactly the `Controller::step` the firmware calls, and the returned torque is held while the
 //! plant is integrated to the next tick. The validity guard runs after every tick and ends the
 //! run with a [`Breakdown`] rather than let numbers from outside the model through.
@@ -198,7 +198,10 @@ pub fn run<const N: usize, const K: usize>(
             "duration must be a finite number of seconds in (0, 3600]",
         ));
     }
-    let ts = controller.settings().ts_s as f64;
+    // The tick as the decimal it was written as (1e-3, not f32's 1.0000000475e-3): the drive's
+    // timer period is exact, and the sample times print cleanly.
+    let ts_f32 = controller.settings().ts_s;
+    let ts = ts_f32.to_string().parse::<f64>().unwrap_or(ts_f32 as f64);
     let theta_home = controller.settings().theta_home_rad as f64;
     let mut sensors = Sensors::new(opts.sensors, theta_home);
     let mut x = State::<N>::at_rest(controller.spline().start() as f64);
