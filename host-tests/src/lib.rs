@@ -6,6 +6,7 @@
 
 pub mod io;
 pub mod metrics;
+pub mod optimize;
 pub mod plant;
 pub mod plot;
 pub mod sensors;

@@ -22,6 +22,10 @@ pub struct CostSpec {
     pub angle_window: (f64, f64),
     /// Root strain window, s.
     pub strain_window: (f64, f64),
+    /// Angle unit of e1, as a multiplier of radians (1 for rad, 180/pi for deg).
+    pub angle_scale: f64,
+    /// Strain unit of e2, as a multiplier of strain (1e6 for microstrain, 1 for strain).
+    pub strain_scale: f64,
 }
 
 impl Default for CostSpec {
@@ -31,6 +35,8 @@ impl Default for CostSpec {
             w2: 10.0,
             angle_window: (0.0, 0.6),
             strain_window: (0.4, 0.6),
+            angle_scale: 1.0,
+            strain_scale: UE,
         }
     }
 }
@@ -123,8 +129,9 @@ pub fn metrics(run: &SimResult) -> Metrics {
     }
 }
 
-/// The paper's J for `run`: W1 int e1^2 dt + W2 int e2^2 dt, e1 = theta - theta_final (rad),
-/// e2 = root strain (microstrain), by the rectangle rule on the tick grid.
+/// The paper's J for `run`: W1 int e1^2 dt + W2 int e2^2 dt, e1 = theta - theta_final and
+/// e2 = root strain in the units of `spec` (default rad and microstrain), by the rectangle
+/// rule on the tick grid.
 pub fn cost(run: &SimResult, spec: &CostSpec) -> f64 {
     let s = &run.samples;
     let dt = if s.len() > 1 { s[1].t - s[0].t } else { 0.0 };
@@ -132,12 +139,12 @@ pub fn cost(run: &SimResult, spec: &CostSpec) -> f64 {
     let e1: f64 = s
         .iter()
         .filter(|x| within(x.t, spec.angle_window))
-        .map(|x| (x.theta - run.theta_final).powi(2))
+        .map(|x| ((x.theta - run.theta_final) * spec.angle_scale).powi(2))
         .sum();
     let e2: f64 = s
         .iter()
         .filter(|x| within(x.t, spec.strain_window))
-        .map(|x| (x.root_strain * UE).powi(2))
+        .map(|x| (x.root_strain * spec.strain_scale).powi(2))
         .sum();
     (spec.w1 * e1 + spec.w2 * e2) * dt
 }

@@ -18,6 +18,7 @@
 
 pub mod beam;
 pub mod controller;
+pub mod gains;
 pub mod law;
 pub mod linalg;
 pub mod measure;

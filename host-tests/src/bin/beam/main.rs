@@ -5,6 +5,21 @@
 //! trace as CSV and the paper's figures as a plot. `--json` prints one JSON object on stdout.
 //! Errors print one line on stderr and exit with code 2.
 
+/// Calls `$f::<N>` with the runtime mode count `$n` (1 to 4) as a const generic.
+macro_rules! with_modes {
+    ($n:expr, $f:ident ( $($arg:expr),* )) => {
+        match $n {
+            1 => $f::<1>($($arg),*),
+            2 => $f::<2>($($arg),*),
+            3 => $f::<3>($($arg),*),
+            _ => $f::<4>($($arg),*),
+        }
+    };
+}
+
+mod optimize_cmd;
+mod sweep_cmd;
+
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use host_tests::metrics::{metrics, Metrics};
 use host_tests::sim::{simulate, SimOptions, SimResult};
@@ -32,9 +47,13 @@ enum Command {
     Model(ModelArgs),
     /// Simulate the paper's slew (-90 to +90 deg in 0.35 s) in closed loop.
     Simulate(SimulateArgs),
+    /// Design gains by constrained optimisation of the paper's cost J.
+    Optimize(optimize_cmd::OptimizeArgs),
+    /// Monte Carlo robustness: parameter errors and payloads, SMC against the PD baseline.
+    Sweep(sweep_cmd::SweepArgs),
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum PresetArg {
     /// The paper's Table 1 as printed (EI 0.176 N m^2; the slew breaks the model).
     Table1,
@@ -60,7 +79,7 @@ struct PlantArgs {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=4))]
     modes: u8,
     /// Tip (payload) mass, kg.
-    #[arg(long, value_name = "KG")]
+    #[arg(long, value_name = "KG", visible_alias = "payload")]
     tip_mass: Option<f64>,
 }
 
@@ -85,9 +104,22 @@ enum ControllerArg {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum SwitchingArg {
+    /// Smooth, bounded sign.
     Tanh,
+    /// Linear boundary layer.
     Sat,
+    /// Ideal relay.
     Sign,
+}
+
+impl From<SwitchingArg> for Switching {
+    fn from(s: SwitchingArg) -> Switching {
+        match s {
+            SwitchingArg::Tanh => Switching::Tanh,
+            SwitchingArg::Sat => Switching::Sat,
+            SwitchingArg::Sign => Switching::Sign,
+        }
+    }
 }
 
 #[derive(Args)]
@@ -115,9 +147,9 @@ struct SimulateArgs {
     /// Strain blend c of smc-strain, rad per unit strain.
     #[arg(long, allow_negative_numbers = true)]
     c: Option<f32>,
-    /// Switching function.
-    #[arg(long, value_enum, default_value = "tanh")]
-    switching: SwitchingArg,
+    /// Switching function [default: the gain table's, else tanh].
+    #[arg(long, value_enum)]
+    switching: Option<SwitchingArg>,
     /// smc-strain: keep the model terms with q estimated from the root strain.
     #[arg(long)]
     model_terms: bool,
@@ -147,6 +179,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Model(a) => run_model(&a),
         Command::Simulate(a) => run_simulate(&a),
+        Command::Optimize(a) => optimize_cmd::run(&a),
+        Command::Sweep(a) => sweep_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -163,18 +197,6 @@ fn beam(plant: &PlantArgs) -> Result<Beam, String> {
         params.tip_mass_kg = m;
     }
     Beam::try_build(params).map_err(|e| e.to_string())
-}
-
-/// Calls `$f::<N>` with the runtime mode count `$n` (1 to 4) as a const generic.
-macro_rules! with_modes {
-    ($n:expr, $f:ident ( $($arg:expr),* )) => {
-        match $n {
-            1 => $f::<1>($($arg),*),
-            2 => $f::<2>($($arg),*),
-            3 => $f::<3>($($arg),*),
-            _ => $f::<4>($($arg),*),
-        }
-    };
 }
 
 fn run_model(a: &ModelArgs) -> Result<(), String> {
@@ -231,7 +253,10 @@ fn law(a: &SimulateArgs) -> Result<Law, String> {
                     return reject(flag);
                 }
             }
-            let base = PdGains::BASELINE;
+            let base = match table_law("pd", a.plant.tip_mass) {
+                Some(Law::Pd(g)) => g,
+                _ => PdGains::BASELINE,
+            };
             Ok(Law::Pd(PdGains {
                 kp: a.kp.unwrap_or(base.kp),
                 kd: a.kd.unwrap_or(base.kd),
@@ -247,22 +272,20 @@ fn law(a: &SimulateArgs) -> Result<Law, String> {
             if !strain && (a.c.is_some() || a.model_terms) {
                 return reject(if a.c.is_some() { "c" } else { "model-terms" });
             }
-            let base = if strain {
-                DEFAULT_SMC_STRAIN
-            } else {
-                DEFAULT_SMC
+            // Gains not given on the command line come from the compiled gain table (at the
+            // configured payload), or the hand-picked defaults if it has no row for this law.
+            let base = match table_law(controller_name(a.controller), a.plant.tip_mass) {
+                Some(Law::Smc(g) | Law::SmcStrain(g)) => g,
+                _ if strain => DEFAULT_SMC_STRAIN,
+                _ => DEFAULT_SMC,
             };
             let g = SmcGains {
                 w: a.w.unwrap_or(base.w),
                 a: a.a.unwrap_or(base.a),
                 beta: a.beta.unwrap_or(base.beta),
                 c: if strain { a.c.unwrap_or(base.c) } else { 0.0 },
-                switching: match a.switching {
-                    SwitchingArg::Tanh => Switching::Tanh,
-                    SwitchingArg::Sat => Switching::Sat,
-                    SwitchingArg::Sign => Switching::Sign,
-                },
-                model_terms: a.model_terms,
+                switching: a.switching.map_or(base.switching, Switching::from),
+                model_terms: strain && (a.model_terms || base.model_terms),
             };
             Ok(if strain {
                 Law::SmcStrain(g)
@@ -271,6 +294,15 @@ fn law(a: &SimulateArgs) -> Result<Law, String> {
             })
         }
     }
+}
+
+/// The compiled table's law for `kind` at the payload (0 kg if none given).
+fn table_law(kind: &str, payload_kg: Option<f64>) -> Option<Law> {
+    model_core::gains::schedule(
+        model_core::gains::GAIN_TABLE,
+        kind,
+        payload_kg.unwrap_or(0.0) as f32,
+    )
 }
 
 fn controller_name(c: ControllerArg) -> &'static str {

@@ -1,0 +1,44 @@
+//! The generator run on bad table files, as the build script runs it: each must be refused
+//! with the file, the row and (where there is one) the field in the message. Also checks the
+//! shipped table.
+
+use std::path::Path;
+
+fn load(name: &str) -> gain_table::TableError {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name);
+    gain_table::load(&path).unwrap_err()
+}
+
+#[test]
+fn bad_fixtures_fail_with_row_and_field() {
+    let e = load("bad_beta.toml");
+    assert!(
+        e.to_string()
+            .ends_with("bad_beta.toml: row 2: field `beta`: -0.1 must be > 0"),
+        "{e}"
+    );
+    let e = load("unsorted.toml");
+    assert_eq!((e.row, e.field), (Some(2), Some("payload_kg")));
+    let e = load("missing_field.toml");
+    assert_eq!(e.row, Some(1));
+    assert!(e.message.contains("missing field `preset`"), "{e}");
+    let e = load("no_such_file.toml");
+    assert!(e.to_string().contains("no_such_file.toml"), "{e}");
+}
+
+#[test]
+fn the_shipped_table_is_valid_and_covers_0_25_50_g() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml");
+    let rows = gain_table::load(&path).unwrap();
+    for controller in ["smc", "smc-strain"] {
+        for payload in [0.0, 0.025, 0.05] {
+            assert!(
+                rows.iter()
+                    .any(|r| r.controller == controller && r.payload_kg == payload),
+                "no {controller} row at {payload} kg"
+            );
+        }
+    }
+}

@@ -1,0 +1,5 @@
+pub fn run(_a: &SweepArgs) -> Result<(), String> {
+    Err("todo".into())
+}
+#[derive(clap::Args)]
+pub struct SweepArgs {}

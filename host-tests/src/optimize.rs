@@ -1,0 +1,461 @@
+//! Gain design by constrained optimisation of the paper's cost J (DESIGN section 5).
+//!
+//! Two stages, both deterministic for a seed: a Latin-hypercube sample of the gain bounds,
+//! evaluated in parallel (rayon keeps the results in sample order), then COBYLA (the `cobyla`
+//! crate, a pure-Rust translation of NLopt's; chosen because it takes inequality constraints
+//! without gradients, and the closed loop is not differentiable: counts are quantised and the
+//! switching function may be `sign`) from the best few samples. Gains are searched in a unit
+//! cube mapped to log scale for the positive gains and linearly for the strain blend c.
+//!
+//! Constraints G(x) <= 0: the commanded torque stays below the drive limit (a saturated drive
+//! is not running the designed law), no validity-guard breakdown, no latched fault, and,
+//! optionally, the hub within a given angle of the target at 0.6 s.
+
+use crate::metrics::{cost, metrics, CostSpec, Metrics};
+use crate::sim::{simulate, SimOptions, SimResult};
+use model_core::{Law, ModalModel, PdGains, SmcGains, Switching};
+use rand::{rngs::StdRng, Rng, SeedableRng};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// Which controller is designed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// PD: kp, kd.
+    Pd,
+    /// The paper's SMC: w, a, beta.
+    Smc,
+    /// Strain-augmented SMC: w, a, beta, c.
+    SmcStrain,
+}
+
+impl Kind {
+    /// The CLI name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Pd => "pd",
+            Kind::Smc => "smc",
+            Kind::SmcStrain => "smc-strain",
+        }
+    }
+}
+
+/// One searched gain: its name, bounds, and whether it is searched on a log scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Param {
+    /// Gain name (`kp`, `kd`, `w`, `a`, `beta`, `c`).
+    pub name: &'static str,
+    /// Lower bound.
+    pub lo: f64,
+    /// Upper bound.
+    pub hi: f64,
+    /// Search log(x) (positive gains) rather than x.
+    pub log: bool,
+}
+
+impl Param {
+    fn unit_of(&self, x: f64) -> f64 {
+        let u = if self.log {
+            (x.max(f64::MIN_POSITIVE).ln() - self.lo.ln()) / (self.hi.ln() - self.lo.ln())
+        } else {
+            (x - self.lo) / (self.hi - self.lo)
+        };
+        if u.is_finite() {
+            u.clamp(0.0, 1.0)
+        } else {
+            0.5
+        }
+    }
+
+    fn gain_at(&self, u: f64) -> f64 {
+        let u = u.clamp(0.0, 1.0);
+        if self.log {
+            (self.lo.ln() + u * (self.hi.ln() - self.lo.ln())).exp()
+        } else {
+            self.lo + u * (self.hi - self.lo)
+        }
+    }
+}
+
+/// Default search bounds for `kind` on `model` (c is kept where the blended output keeps
+/// its control direction, `1 - c gamma >= 0.25`).
+pub fn default_params<const N: usize>(kind: Kind, model: &ModalModel<N>) -> Vec<Param> {
+    let p = |name, lo, hi, log| Param { name, lo, hi, log };
+    match kind {
+        Kind::Pd => vec![p("kp", 0.5, 200.0, true), p("kd", 0.01, 20.0, true)],
+        Kind::Smc => vec![
+            p("w", 1.0, 200.0, true),
+            p("a", 10.0, 5000.0, true),
+            p("beta", 0.003, 5.0, true),
+        ],
+        Kind::SmcStrain => {
+            let minv_h = model_core::linalg::mat_vec(&model.mqq_inv, &model.h);
+            let gamma = model_core::linalg::dot(&model.root_strain_coef, &minv_h);
+            // 1 - c gamma >= 0.25 on the side where c gamma > 0.
+            let edge = 0.75 / gamma.abs().max(1e-12);
+            let (lo, hi) = if gamma > 0.0 {
+                (-4.0 * edge, edge)
+            } else {
+                (-edge, 4.0 * edge)
+            };
+            vec![
+                p("w", 1.0, 200.0, true),
+                p("a", 10.0, 5000.0, true),
+                p("beta", 0.003, 5.0, true),
+                p("c", lo.max(-2000.0), hi.min(2000.0), false),
+            ]
+        }
+    }
+}
+
+/// What to optimise and how hard.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spec {
+    /// The controller.
+    pub kind: Kind,
+    /// Searched gains and bounds.
+    pub params: Vec<Param>,
+    /// Switching function (SMC).
+    pub switching: Switching,
+    /// Keep the model terms (smc-strain).
+    pub model_terms: bool,
+    /// Cost weights, windows and units.
+    pub cost: CostSpec,
+    /// Constraint: |theta - theta_final| at 0.6 s at most this, deg.
+    pub max_err_deg_0_6: Option<f64>,
+    /// Constraint: |theta - theta_final| at most `.1` deg at time `.0` s (and the run lasts that
+    /// long). J looks only to 0.6 s; without this, gains that stop the beam but let the hub
+    /// creep toward the target for seconds score well.
+    pub hold: Option<(f64, f64)>,
+    /// Constraint: peak commanded torque at most this fraction of the drive limit.
+    pub torque_fraction: f64,
+    /// Latin-hypercube samples of the global stage.
+    pub samples: usize,
+    /// Local COBYLA runs, from the best samples.
+    pub starts: usize,
+    /// Objective evaluations per local run.
+    pub local_evals: usize,
+    /// Seed of the sample (and of the simulated sensor noise).
+    pub seed: u64,
+    /// Gains (in `params` order) to start one local run from, for instance the neighbouring
+    /// payload's row: rows found from a common start stay in one region of gain space, so
+    /// interpolating between them stays meaningful.
+    pub warm_start: Option<Vec<f64>>,
+}
+
+/// One evaluated gain set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evaluation {
+    /// The gains, in the order of `Spec::params`.
+    pub gains: Vec<f64>,
+    /// The law they make.
+    pub law: Law,
+    /// J (infinite when the run broke down).
+    pub cost: f64,
+    /// The angle term W1 int e1^2.
+    pub angle_term: f64,
+    /// The strain term W2 int e2^2.
+    pub strain_term: f64,
+    /// Worst constraint value: feasible when <= 0.
+    pub violation: f64,
+}
+
+impl Evaluation {
+    /// True when every constraint holds.
+    pub fn feasible(&self) -> bool {
+        self.violation <= 0.0 && self.cost.is_finite()
+    }
+
+    /// Ranking key: feasible first by cost, then infeasible by violation.
+    fn rank(&self) -> (bool, f64) {
+        if self.feasible() {
+            (false, self.cost)
+        } else {
+            (true, self.violation)
+        }
+    }
+}
+
+/// The result of a design.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The best gain set found.
+    pub best: Evaluation,
+    /// Closed-loop evaluations run.
+    pub evaluations: usize,
+}
+
+/// The law for gains `x` (in `spec.params` order).
+pub fn law_for(spec: &Spec, x: &[f64]) -> Law {
+    let get = |name: &str, default: f64| {
+        spec.params
+            .iter()
+            .position(|p| p.name == name)
+            .map_or(default, |i| x[i]) as f32
+    };
+    match spec.kind {
+        Kind::Pd => Law::Pd(PdGains {
+            kp: get("kp", 20.0),
+            kd: get("kd", 1.0),
+        }),
+        Kind::Smc | Kind::SmcStrain => {
+            let g = SmcGains {
+                w: get("w", 10.0),
+                a: get("a", 1000.0),
+                beta: get("beta", 0.1),
+                c: if spec.kind == Kind::SmcStrain {
+                    get("c", 0.0)
+                } else {
+                    0.0
+                },
+                switching: spec.switching,
+                model_terms: spec.kind == Kind::SmcStrain && spec.model_terms,
+            };
+            if spec.kind == Kind::Smc {
+                Law::Smc(g)
+            } else {
+                Law::SmcStrain(g)
+            }
+        }
+    }
+}
+
+/// Simulated time a cost evaluation needs: the end of the later window (at least 0.6 s for
+/// the hub-error constraint).
+fn eval_duration(spec: &Spec) -> f64 {
+    let hold = spec.hold.map_or(0.0, |h| h.0);
+    spec.cost
+        .angle_window
+        .1
+        .max(spec.cost.strain_window.1)
+        .max(0.6)
+        .max(hold)
+}
+
+/// Runs the closed loop for gains `x` and scores it.
+pub fn evaluate<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
+    let law = law_for(spec, x);
+    let opts = SimOptions {
+        duration_s: eval_duration(spec),
+        sensors: crate::sensors::SensorConfig {
+            seed: spec.seed,
+            ..Default::default()
+        },
+        ..SimOptions::default()
+    };
+    let infeasible = |violation| Evaluation {
+        gains: x.to_vec(),
+        law,
+        cost: f64::INFINITY,
+        angle_term: f64::INFINITY,
+        strain_term: f64::INFINITY,
+        violation,
+    };
+    let run = match simulate(model, law, &opts) {
+        Ok(run) => run,
+        Err(_) => return infeasible(1e3),
+    };
+    score(model, spec, x, law, &run).unwrap_or_else(|| infeasible(1e3))
+}
+
+fn score<const N: usize>(
+    model: &ModalModel<N>,
+    spec: &Spec,
+    x: &[f64],
+    law: Law,
+    run: &SimResult,
+) -> Option<Evaluation> {
+    if run.breakdown.is_some() || run.faults != "none" {
+        return None;
+    }
+    let limit = model.beam.params().torque_limit_nm;
+    let peak = run
+        .samples
+        .iter()
+        .map(|s| s.torque.abs())
+        .fold(0.0, f64::max);
+    let mut violation = peak / (spec.torque_fraction * limit) - 1.0;
+    let err_at = |t: f64| {
+        let k = run.samples.iter().position(|s| s.t >= t - 1e-9)?;
+        Some((run.samples[k].theta - run.theta_final).abs().to_degrees())
+    };
+    if let Some(max_err) = spec.max_err_deg_0_6 {
+        violation = violation.max(err_at(0.6)? / max_err - 1.0);
+    }
+    if let Some((t, max_err)) = spec.hold {
+        violation = violation.max(err_at(t)? / max_err - 1.0);
+    }
+    let angle_term = cost(
+        run,
+        &CostSpec {
+            w2: 0.0,
+            ..spec.cost
+        },
+    );
+    let strain_term = cost(
+        run,
+        &CostSpec {
+            w1: 0.0,
+            ..spec.cost
+        },
+    );
+    Some(Evaluation {
+        gains: x.to_vec(),
+        law,
+        cost: angle_term + strain_term,
+        angle_term,
+        strain_term,
+        violation,
+    })
+}
+
+/// Designs gains for `model` per `spec`. `progress(done, total)` is called as evaluations
+/// finish (from several threads).
+pub fn optimize<const N: usize>(
+    model: &ModalModel<N>,
+    spec: &Spec,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Outcome {
+    let d = spec.params.len();
+    let total = spec.samples + spec.starts * spec.local_evals;
+    let done = AtomicUsize::new(0);
+    let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+
+    // Stage 1: Latin hypercube, one stratum per sample in every dimension.
+    let mut rng = StdRng::seed_from_u64(spec.seed);
+    let mut columns: Vec<Vec<f64>> = Vec::with_capacity(d);
+    for _ in 0..d {
+        let mut strata: Vec<usize> = (0..spec.samples).collect();
+        for i in (1..strata.len()).rev() {
+            strata.swap(i, rng.gen_range(0..=i));
+        }
+        columns.push(
+            strata
+                .into_iter()
+                .map(|s| (s as f64 + rng.gen::<f64>()) / spec.samples as f64)
+                .collect(),
+        );
+    }
+    let units: Vec<Vec<f64>> = (0..spec.samples)
+        .map(|i| columns.iter().map(|c| c[i]).collect())
+        .collect();
+    let to_gains = |u: &[f64]| {
+        spec.params
+            .iter()
+            .zip(u)
+            .map(|(p, &u)| p.gain_at(u))
+            .collect::<Vec<f64>>()
+    };
+    let mut sampled: Vec<(Vec<f64>, Evaluation)> = units
+        .par_iter()
+        .map(|u| {
+            let e = evaluate(model, spec, &to_gains(u));
+            tick();
+            (u.clone(), e)
+        })
+        .collect();
+    sampled.sort_by(|a, b| {
+        a.1.rank()
+            .partial_cmp(&b.1.rank())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+
+    // Stage 2: COBYLA from the warm start and the best samples, in parallel.
+    let warm = spec.warm_start.as_ref().filter(|g| g.len() == d).map(|g| {
+        let u: Vec<f64> = spec
+            .params
+            .iter()
+            .zip(g)
+            .map(|(p, &x)| p.unit_of(x))
+            .collect();
+        let e = evaluate(model, spec, &to_gains(&u));
+        (u, e)
+    });
+    let take = spec.starts.saturating_sub(usize::from(warm.is_some()));
+    let starts: Vec<&(Vec<f64>, Evaluation)> =
+        warm.iter().chain(sampled.iter().take(take)).collect();
+    let local: Vec<Evaluation> = starts
+        .par_iter()
+        .map(|(u0, e0)| {
+            let best = Mutex::new(e0.clone());
+            let last: Mutex<Option<(Vec<f64>, Evaluation)>> = Mutex::new(None);
+            // COBYLA asks for the objective and each constraint at the same point: run the
+            // closed loop once per point.
+            let eval_at = |u: &[f64]| -> Evaluation {
+                let mut cache = last.lock().unwrap_or_else(|p| p.into_inner());
+                if let Some((cu, ce)) = cache.as_ref() {
+                    if cu.as_slice() == u {
+                        return ce.clone();
+                    }
+                }
+                let e = evaluate(model, spec, &to_gains(u));
+                tick();
+                let mut b = best.lock().unwrap_or_else(|p| p.into_inner());
+                if e.rank().partial_cmp(&b.rank()) == Some(std::cmp::Ordering::Less) {
+                    *b = e.clone();
+                }
+                *cache = Some((u.to_vec(), e.clone()));
+                e
+            };
+            // Objective: log J (J spans decades), a large finite value where the run fails.
+            let objective = |u: &[f64], _: &mut ()| {
+                let e = eval_at(u);
+                if e.cost.is_finite() {
+                    e.cost.max(1e-300).ln()
+                } else {
+                    1e3
+                }
+            };
+            // cobyla's constraints are c(x) >= 0: pass -G(x).
+            let constraint = |u: &[f64], _: &mut ()| -eval_at(u).violation;
+            let cons: [&dyn cobyla::Func<()>; 1] = [&constraint];
+            let bounds = vec![(0.0, 1.0); d];
+            let _ = cobyla::minimize(
+                objective,
+                u0,
+                &bounds,
+                &cons,
+                (),
+                spec.local_evals,
+                cobyla::RhoBeg::All(0.05),
+                Some(cobyla::StopTols {
+                    xtol_rel: 1e-4,
+                    ..Default::default()
+                }),
+            );
+            best.into_inner().unwrap_or_else(|p| p.into_inner())
+        })
+        .collect();
+    let best = local
+        .into_iter()
+        .chain(sampled.first().map(|s| s.1.clone()))
+        .min_by(|a, b| {
+            a.rank()
+                .partial_cmp(&b.rank())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .unwrap_or_else(|| evaluate(model, spec, &to_gains(&vec![0.5; d])));
+    Outcome {
+        best,
+        evaluations: done.load(Ordering::Relaxed),
+    }
+}
+
+/// Full-length metrics of `law` on `model` (for reporting a design against the baseline).
+pub fn full_metrics<const N: usize>(
+    model: &ModalModel<N>,
+    law: Law,
+    seed: u64,
+) -> Result<Metrics, String> {
+    let opts = SimOptions {
+        sensors: crate::sensors::SensorConfig {
+            seed,
+            ..Default::default()
+        },
+        ..SimOptions::default()
+    };
+    simulate(model, law, &opts)
+        .map(|r| metrics(&r))
+        .map_err(|e| e.to_string())
+}

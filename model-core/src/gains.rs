@@ -1,0 +1,121 @@
+//! The gain table compiled in at build time, and gain scheduling over the payload.
+//!
+//! `build.rs` turns the checked-in `gains.toml` into [`GAIN_TABLE`]; [`schedule`] picks the
+//! gains for a configured payload, interpolating linearly between the neighbouring rows of the
+//! chosen controller and holding the end rows outside their range. Scheduling happens when the
+//! drive is configured, not in the tick: the result is validated by `ControlLaw::try_build`
+//! and swapped in whole.
+
+use crate::law::{Law, PdGains, SmcGains, Switching};
+
+/// One row of the table: the gains for one controller at one payload.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GainRow {
+    /// Payload (tip mass), kg.
+    pub payload_kg: f32,
+    /// The controller and its gains.
+    pub law: Law,
+}
+
+include!(concat!(env!("OUT_DIR"), "/gain_table.rs"));
+
+/// The gains for controller `kind` (`"pd"`, `"smc"`, `"smc-strain"`) at `payload_kg`, from
+/// `table`; `None` if the table has no row for that controller. A NaN payload takes the
+/// lightest row.
+pub fn schedule(table: &[GainRow], kind: &str, payload_kg: f32) -> Option<Law> {
+    let mut rows = table.iter().filter(|r| r.law.name() == kind);
+    let first = rows.next()?;
+    if !(payload_kg > first.payload_kg) {
+        return Some(first.law);
+    }
+    let mut below = first;
+    for above in rows {
+        if payload_kg <= above.payload_kg {
+            let f = (payload_kg - below.payload_kg) / (above.payload_kg - below.payload_kg);
+            return Some(lerp(&below.law, &above.law, f));
+        }
+        below = above;
+    }
+    Some(below.law)
+}
+
+fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
+    let mix = |a: f32, b: f32| a + (b - a) * f;
+    let smc = |a: &SmcGains, b: &SmcGains| SmcGains {
+        w: mix(a.w, b.w),
+        a: mix(a.a, b.a),
+        beta: mix(a.beta, b.beta),
+        c: mix(a.c, b.c),
+        switching: a.switching,
+        model_terms: a.model_terms,
+    };
+    match (lo, hi) {
+        (Law::Pd(a), Law::Pd(b)) => Law::Pd(PdGains {
+            kp: mix(a.kp, b.kp),
+            kd: mix(a.kd, b.kd),
+        }),
+        (Law::Smc(a), Law::Smc(b)) => Law::Smc(smc(a, b)),
+        (Law::SmcStrain(a), Law::SmcStrain(b)) => Law::SmcStrain(smc(a, b)),
+        // Rows are filtered by kind, so kinds always match.
+        _ => *lo,
+    }
+}
+
+/// Keeps `Switching` in scope for the generated table.
+const _: Switching = Switching::Tanh;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const G: SmcGains = SmcGains {
+        w: 10.0,
+        a: 100.0,
+        beta: 0.1,
+        c: 0.0,
+        switching: Switching::Tanh,
+        model_terms: false,
+    };
+    const TABLE: [GainRow; 3] = [
+        GainRow {
+            payload_kg: 0.0,
+            law: Law::Smc(G),
+        },
+        GainRow {
+            payload_kg: 0.05,
+            law: Law::Smc(SmcGains {
+                w: 20.0,
+                a: 300.0,
+                ..G
+            }),
+        },
+        GainRow {
+            payload_kg: 0.01,
+            law: Law::Pd(PdGains { kp: 20.0, kd: 1.0 }),
+        },
+    ];
+
+    #[test]
+    fn interpolates_between_rows_and_holds_the_ends() {
+        let mid = schedule(&TABLE, "smc", 0.025).unwrap();
+        assert_eq!(
+            mid,
+            Law::Smc(SmcGains {
+                w: 15.0,
+                a: 200.0,
+                ..G
+            })
+        );
+        assert_eq!(schedule(&TABLE, "smc", -1.0).unwrap(), TABLE[0].law);
+        assert_eq!(schedule(&TABLE, "smc", 9.0).unwrap(), TABLE[1].law);
+        assert_eq!(schedule(&TABLE, "smc", f32::NAN).unwrap(), TABLE[0].law);
+        assert_eq!(schedule(&TABLE, "pd", 0.3).unwrap(), TABLE[2].law);
+        assert_eq!(schedule(&TABLE, "smc-strain", 0.0), None);
+    }
+
+    #[test]
+    fn the_compiled_table_has_smc_rows() {
+        assert!(GAIN_TABLE.iter().any(|r| r.law.name() == "smc"));
+        assert!(schedule(GAIN_TABLE, "smc", 0.0).is_some());
+    }
+}
