@@ -11,3 +11,4 @@ pub mod plant;
 pub mod plot;
 pub mod sensors;
 pub mod sim;
+pub mod sweep;

@@ -117,3 +117,125 @@ where
     }
     Ok(())
 }
+
+/// One histogram panel: a title, the x unit, and the two samples to compare.
+pub struct HistogramPanel<'a> {
+    /// Panel title.
+    pub title: &'a str,
+    /// Unit of the values.
+    pub unit: &'a str,
+    /// The designed controller's values.
+    pub controller: Vec<f64>,
+    /// The baseline's values.
+    pub baseline: Vec<f64>,
+}
+
+/// Overlaid histograms (designed controller against the baseline), one panel per metric,
+/// side by side, into `path` (`.png` or `.svg`).
+pub fn histograms(
+    title: &str,
+    labels: (&str, &str),
+    panels: &[HistogramPanel],
+    path: &Path,
+) -> Result<(), String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let size = (600 * panels.len().max(1) as u32, 500);
+    match ext.as_deref() {
+        Some("png") => {
+            let root = BitMapBackend::new(path, size).into_drawing_area();
+            draw_histograms(title, labels, panels, &root)?;
+            root.present().map_err(|e| e.to_string())
+        }
+        Some("svg") => {
+            let root = SVGBackend::new(path, size).into_drawing_area();
+            draw_histograms(title, labels, panels, &root)?;
+            root.present().map_err(|e| e.to_string())
+        }
+        _ => Err(format!(
+            "plot file {} must end in .png or .svg",
+            path.display()
+        )),
+    }
+}
+
+fn draw_histograms<DB: DrawingBackend>(
+    title: &str,
+    labels: (&str, &str),
+    panels: &[HistogramPanel],
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(title, ("sans-serif", 22))
+        .map_err(|e| err(&e))?;
+    const BINS: usize = 30;
+    for (area, panel) in root
+        .split_evenly((1, panels.len().max(1)))
+        .iter()
+        .zip(panels)
+    {
+        let all = panel
+            .controller
+            .iter()
+            .chain(&panel.baseline)
+            .copied()
+            .filter(|v| v.is_finite());
+        let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+        let (lo, hi) = if lo.is_finite() && hi > lo {
+            (lo, hi)
+        } else {
+            (0.0, 1.0)
+        };
+        let width = (hi - lo) / BINS as f64;
+        let count = |v: &[f64]| {
+            let mut c = [0usize; BINS];
+            for x in v.iter().filter(|x| x.is_finite()) {
+                c[(((x - lo) / width) as usize).min(BINS - 1)] += 1;
+            }
+            c
+        };
+        let (a, b) = (count(&panel.controller), count(&panel.baseline));
+        let top = a.iter().chain(&b).copied().max().unwrap_or(1).max(1);
+        let mut chart = ChartBuilder::on(area)
+            .caption(panel.title, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .build_cartesian_2d(lo..hi, 0usize..top + top / 10 + 1)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(panel.unit)
+            .y_desc("cases")
+            .draw()
+            .map_err(|e| err(&e))?;
+        for (counts, color, label) in [(a, BLUE, labels.0), (b, RED, labels.1)] {
+            chart
+                .draw_series(counts.iter().enumerate().map(|(i, &n)| {
+                    let x0 = lo + i as f64 * width;
+                    Rectangle::new([(x0, 0), (x0 + width, n)], color.mix(0.45).filled())
+                }))
+                .map_err(|e| err(&e))?
+                .label(label)
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 15, y + 5)], color.mix(0.45).filled())
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    Ok(())
+}

@@ -180,11 +180,22 @@ pub fn simulate<const N: usize>(
     law: Law,
     opts: &SimOptions,
 ) -> Result<SimResult, SimError> {
-    let settings = settings_for(model, &opts.sensors);
-    let law = ControlLaw::try_build(law, model).map_err(|e| SimError::Config(e.into()))?;
+    simulate_mismatched(model, model, law, opts)
+}
+
+/// The paper's slew with the controller designed on `nominal` running against `plant`: the
+/// robustness case, where the drive's model is not the beam's.
+pub fn simulate_mismatched<const N: usize>(
+    plant: &ModalModel<N>,
+    nominal: &ModalModel<N>,
+    law: Law,
+    opts: &SimOptions,
+) -> Result<SimResult, SimError> {
+    let settings = settings_for(nominal, &opts.sensors);
+    let law = ControlLaw::try_build(law, nominal).map_err(|e| SimError::Config(e.into()))?;
     let controller =
         Controller::try_build(settings, law, paper_slew()?).map_err(SimError::Config)?;
-    run(Plant::new(*model), controller, opts)
+    run(Plant::new(*plant), controller, opts)
 }
 
 /// Runs `controller` against `plant` from rest at the move's start.

@@ -1,5 +1,244 @@
-pub fn run(_a: &SweepArgs) -> Result<(), String> {
-    Err("todo".into())
+//! `beam sweep`: Monte Carlo over parameter errors and payloads, the scheduled controller
+//! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
+
+use crate::{
+    beam, controller_name, table_law, ControllerArg, PlantArgs, DEFAULT_SMC, DEFAULT_SMC_STRAIN,
+};
+use clap::Args;
+use host_tests::metrics::Metrics;
+use host_tests::plot::{histograms, HistogramPanel};
+use host_tests::sweep::{percentiles, sweep, Case, SweepSpec};
+use model_core::{Law, PdGains, Preset};
+use serde_json::json;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Args)]
+pub struct SweepArgs {
+    #[command(flatten)]
+    plant: PlantArgs,
+    /// Controller (gains from the compiled table at each case's payload).
+    #[arg(long, value_enum, default_value = "smc")]
+    controller: ControllerArg,
+    /// Number of cases.
+    #[arg(long, default_value_t = 1000)]
+    cases: usize,
+    /// Parameter error bound: EI, rho, Jm, friction and damping each within +-SPREAD.
+    #[arg(long, default_value_t = 0.2)]
+    spread: f64,
+    /// Largest payload, kg (uniform from 0).
+    #[arg(long, default_value_t = 0.05)]
+    payload_max: f64,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Write one row per case.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Write histograms of the residual strain and hub error (.png or .svg).
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
 }
-#[derive(clap::Args)]
-pub struct SweepArgs {}
+
+type Pick = fn(&Metrics) -> Option<f64>;
+const SUMMARY: [(&str, Pick); 6] = [
+    ("rms_root_strain_ue_0_4_0_6", |m| {
+        m.rms_root_strain_ue_0_4_0_6
+    }),
+    ("err_deg_t0_6", |m| m.err_deg_t0_6),
+    ("err_deg_t2_0", |m| m.err_deg_t2_0),
+    ("settle_s", |m| m.settle_s),
+    ("peak_torque_nm", |m| m.peak_torque_nm),
+    ("max_root_strain_ue_after_move", |m| {
+        m.max_root_strain_ue_after_move
+    }),
+];
+
+pub fn run(a: &SweepArgs) -> Result<(), String> {
+    if a.plant.tip_mass.is_some() {
+        return Err(
+            "--tip-mass does not apply to sweep: payloads are drawn up to --payload-max".into(),
+        );
+    }
+    if !(a.spread.is_finite() && (0.0..0.9).contains(&a.spread)) {
+        return Err(format!("--spread {} must be in [0, 0.9)", a.spread));
+    }
+    if !(a.payload_max.is_finite() && (0.0..=1.0).contains(&a.payload_max)) {
+        return Err(format!(
+            "--payload-max {} must be in [0, 1] kg",
+            a.payload_max
+        ));
+    }
+    if a.cases == 0 || a.cases > 1_000_000 {
+        return Err(format!("--cases {} must be 1..=1000000", a.cases));
+    }
+    for (flag, path) in [("--plot", &a.plot)] {
+        if let Some(p) = path {
+            let ext = p
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            if !matches!(ext.as_deref(), Some("png" | "svg")) {
+                return Err(format!(
+                    "{flag} {}: the file must end in .png or .svg",
+                    p.display()
+                ));
+            }
+        }
+    }
+    let nominal = *beam(&a.plant)?.params();
+    let kind = controller_name(a.controller);
+    let fallback = match a.controller {
+        ControllerArg::Pd => Law::Pd(PdGains::BASELINE),
+        ControllerArg::Smc => Law::Smc(DEFAULT_SMC),
+        ControllerArg::SmcStrain => Law::SmcStrain(DEFAULT_SMC_STRAIN),
+    };
+    let law_at = move |payload: f64| table_law(kind, Some(payload)).unwrap_or(fallback);
+    let spec = SweepSpec {
+        cases: a.cases,
+        spread: a.spread,
+        payload_max_kg: a.payload_max,
+        seed: a.seed,
+    };
+    let started = Instant::now();
+    let cases = with_modes!(
+        a.plant.modes,
+        sweep(&nominal, &spec, &law_at, Law::Pd(PdGains::BASELINE))
+    )?;
+    let seconds = started.elapsed().as_secs_f64();
+    if let Some(path) = &a.csv {
+        host_tests::io::write_atomically(path, |w| write_csv(&cases, w))
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    if let Some(path) = &a.plot {
+        let panels = [
+            HistogramPanel {
+                title: "RMS root strain 0.4..0.6 s",
+                unit: "microstrain",
+                controller: cases
+                    .iter()
+                    .filter_map(|c| c.controller.rms_root_strain_ue_0_4_0_6)
+                    .collect(),
+                baseline: cases
+                    .iter()
+                    .filter_map(|c| c.baseline.rms_root_strain_ue_0_4_0_6)
+                    .collect(),
+            },
+            HistogramPanel {
+                title: "Hub error at 0.6 s",
+                unit: "deg",
+                controller: cases
+                    .iter()
+                    .filter_map(|c| c.controller.err_deg_t0_6)
+                    .collect(),
+                baseline: cases
+                    .iter()
+                    .filter_map(|c| c.baseline.err_deg_t0_6)
+                    .collect(),
+            },
+        ];
+        let title = format!(
+            "{} vs PD 20/1: {} cases, +-{:.0} % parameters, 0..{} kg",
+            kind,
+            a.cases,
+            a.spread * 100.0,
+            a.payload_max
+        );
+        host_tests::io::plot_atomically(path, |tmp| {
+            histograms(&title, (kind, "pd 20/1"), &panels, tmp)
+        })?;
+    }
+    let breakdowns = |f: fn(&Case) -> &Metrics| {
+        cases
+            .iter()
+            .filter(|c| f(c).breakdown_at_s.is_some())
+            .count()
+    };
+    let (bc, bb) = (breakdowns(|c| &c.controller), breakdowns(|c| &c.baseline));
+    let stats = |f: fn(&Case) -> &Metrics| {
+        SUMMARY
+            .iter()
+            .map(|(name, pick)| (*name, percentiles(cases.iter().map(|c| pick(f(c))))))
+            .collect::<Vec<_>>()
+    };
+    let (sc, sb) = (stats(|c| &c.controller), stats(|c| &c.baseline));
+    if a.json {
+        let obj = |s: &[(&str, Option<(f64, f64, f64)>)]| {
+            s.iter()
+                .map(|(n, p)| {
+                    (
+                        n.to_string(),
+                        p.map_or(
+                            json!(null),
+                            |(a, b, c)| json!({"p50": a, "p95": b, "max": c}),
+                        ),
+                    )
+                })
+                .collect::<serde_json::Map<_, _>>()
+        };
+        let v = json!({
+            "controller": kind, "preset": Preset::from(a.plant.preset).name(), "modes": a.plant.modes,
+            "cases": a.cases, "spread": a.spread, "payload_max_kg": a.payload_max, "seed": a.seed, "seconds": seconds,
+            "breakdowns": bc, "baseline_breakdowns": bb, "metrics": obj(&sc), "baseline_metrics": obj(&sb),
+        });
+        println!("{v}");
+        return Ok(());
+    }
+    println!(
+        "{} cases in {seconds:.1} s: {kind} (gain table) vs PD 20/1, {} preset, {} mode(s), +-{:.0} % on EI, rho, Jm, friction, damping, payload 0..{} kg",
+        a.cases,
+        Preset::from(a.plant.preset).name(),
+        a.plant.modes,
+        a.spread * 100.0,
+        a.payload_max
+    );
+    println!("  model breakdowns: {kind} {bc}, pd {bb} (metrics below are over the runs that stayed in range)");
+    println!(
+        "  {:32} {:>30} {:>30}",
+        "metric (p50 / p95 / max)", kind, "pd 20/1"
+    );
+    let fmt = |p: Option<(f64, f64, f64)>| {
+        p.map_or("n/a".to_string(), |(a, b, c)| {
+            format!("{a:.3} / {b:.3} / {c:.3}")
+        })
+    };
+    for ((name, c), (_, b)) in sc.iter().zip(&sb) {
+        println!("  {name:32} {:>30} {:>30}", fmt(*c), fmt(*b));
+    }
+    Ok(())
+}
+
+fn write_csv(cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
+    write!(
+        w,
+        "case,payload_kg,ei_scale,rho_scale,jm_scale,friction_scale,damping_scale"
+    )?;
+    for who in ["ctl", "pd"] {
+        for (name, _) in SUMMARY {
+            write!(w, ",{who}_{name}")?;
+        }
+        write!(w, ",{who}_breakdown_at_s")?;
+    }
+    writeln!(w)?;
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+    for (i, c) in cases.iter().enumerate() {
+        let p = &c.perturbation;
+        write!(
+            w,
+            "{i},{},{},{},{},{},{}",
+            p.payload_kg, p.ei, p.rho, p.jm, p.friction, p.damping
+        )?;
+        for m in [&c.controller, &c.baseline] {
+            for (_, pick) in SUMMARY {
+                write!(w, ",{}", opt(pick(m)))?;
+            }
+            write!(w, ",{}", opt(m.breakdown_at_s))?;
+        }
+        writeln!(w)?;
+    }
+    Ok(())
+}
