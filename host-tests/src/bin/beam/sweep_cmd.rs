@@ -45,6 +45,8 @@ pub struct SweepArgs {
 }
 
 type Pick = fn(&Metrics) -> Option<f64>;
+/// A metric's name and its (p50, p95, max).
+type Summary = (&'static str, Option<(f64, f64, f64)>);
 const SUMMARY: [(&str, Pick); 6] = [
     ("rms_root_strain_ue_0_4_0_6", |m| {
         m.rms_root_strain_ue_0_4_0_6
@@ -167,7 +169,7 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
     };
     let (sc, sb) = (stats(|c| &c.controller), stats(|c| &c.baseline));
     if a.json {
-        let obj = |s: &[(&str, Option<(f64, f64, f64)>)]| {
+        let obj = |s: &[Summary]| {
             s.iter()
                 .map(|(n, p)| {
                     (
