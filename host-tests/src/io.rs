@@ -53,20 +53,27 @@ pub fn plot_atomically(
     out.map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// The trace as CSV: the columns `beam calibrate` reads (time, torque, hub angle, root
-/// strain, mid-span strain) and the rest of the recorded state. SI units.
+/// The trace as CSV. The first five columns are what a drive logs and `beam calibrate` reads:
+/// time, applied torque, the hub angle and root strain *as measured* (encoder quantisation,
+/// ADC noise and offset removal included) and the mid-span strain (true value: the simulated
+/// drive has no mid-span gauge). The rest are the plant's true signals. SI units.
 pub fn write_trace_csv(run: &SimResult, w: &mut dyn Write) -> io::Result<()> {
-    writeln!(w, "t_s,torque_nm,theta_rad,root_strain,mid_strain,theta_ref_rad,omega_rad_s,w_tip_m,tip_angle_rad")?;
+    writeln!(
+        w,
+        "t_s,torque_nm,theta_rad,root_strain,mid_strain,theta_ref_rad,theta_true_rad,root_strain_true,omega_rad_s,w_tip_m,tip_angle_rad"
+    )?;
     for s in &run.samples {
         writeln!(
             w,
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             s.t,
             s.torque,
-            s.theta,
-            s.root_strain,
+            s.theta_meas,
+            s.root_strain_meas,
             s.mid_strain,
             s.theta_ref,
+            s.theta,
+            s.root_strain,
             s.omega,
             s.w_tip,
             s.tip_angle

@@ -4,11 +4,13 @@
 //! Everything here is `std` and `f64`; the controller it drives is the very `no_std`, `f32`
 //! model-core code the firmware runs.
 
+pub mod calibrate;
 pub mod io;
 pub mod metrics;
 pub mod optimize;
 pub mod plant;
 pub mod plot;
+pub mod preset_file;
 pub mod sensors;
 pub mod sim;
 pub mod sweep;

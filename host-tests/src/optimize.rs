@@ -55,7 +55,8 @@ pub struct Param {
 }
 
 impl Param {
-    fn unit_of(&self, x: f64) -> f64 {
+    /// The unit-cube coordinate of gain `x` (clamped to the bounds).
+    pub fn unit_of(&self, x: f64) -> f64 {
         let u = if self.log {
             (x.max(f64::MIN_POSITIVE).ln() - self.lo.ln()) / (self.hi.ln() - self.lo.ln())
         } else {
@@ -68,7 +69,8 @@ impl Param {
         }
     }
 
-    fn gain_at(&self, u: f64) -> f64 {
+    /// The gain at unit-cube coordinate `u`.
+    pub fn gain_at(&self, u: f64) -> f64 {
         let u = u.clamp(0.0, 1.0);
         if self.log {
             (self.lo.ln() + u * (self.hi.ln() - self.lo.ln())).exp()

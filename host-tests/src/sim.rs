@@ -115,6 +115,10 @@ pub struct Sample {
     pub tip_angle: f64,
     /// Controller mode after the tick.
     pub mode: Mode,
+    /// Hub angle as the controller measured it (encoder counts), rad.
+    pub theta_meas: f64,
+    /// Root strain as the controller measured it (ADC code, offset removed).
+    pub root_strain_meas: f64,
 }
 
 /// A finished run.
@@ -249,6 +253,8 @@ pub fn run<const N: usize, const K: usize>(
             w_tip: out.w_tip,
             tip_angle: out.tip_angle,
             mode: cmd.mode,
+            theta_meas: cmd.theta_rad as f64,
+            root_strain_meas: cmd.strain as f64,
         });
         if k == ticks {
             break;

@@ -207,3 +207,103 @@ fn bad_input_exits_2_with_one_line_and_writes_nothing() {
     );
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn optimize_sweep_and_calibrate_run_and_report_json() {
+    let v = json(&beam(&[
+        "optimize",
+        "--controller",
+        "smc",
+        "--samples",
+        "16",
+        "--starts",
+        "1",
+        "--local-evals",
+        "10",
+        "--json",
+    ]));
+    for k in [
+        "gains",
+        "feasible",
+        "cost_j",
+        "angle_term",
+        "strain_term",
+        "metrics",
+        "pd_baseline_metrics",
+        "evaluations",
+    ] {
+        assert!(v.get(k).is_some(), "optimize: no `{k}`");
+    }
+    let angle = v["angle_term"].as_f64().unwrap();
+    let strain = v["strain_term"].as_f64().unwrap();
+    assert!((angle + strain - v["cost_j"].as_f64().unwrap()).abs() < 1e-9 * (angle + strain));
+    let v = json(&beam(&["sweep", "--cases", "20", "--json"]));
+    assert_eq!(v["cases"], 20);
+    let p = &v["metrics"]["rms_root_strain_ue_0_4_0_6"];
+    assert!(
+        p["p50"].as_f64().unwrap() <= p["p95"].as_f64().unwrap()
+            && p["p95"].as_f64().unwrap() <= p["max"].as_f64().unwrap()
+    );
+}
+
+#[test]
+fn optimize_writes_a_valid_table_row() {
+    let dir = scratch("table");
+    let table = dir.join("gains.toml");
+    let t = table.to_str().unwrap();
+    for payload in ["0.02", "0.0"] {
+        let out = beam(&[
+            "optimize",
+            "--payload",
+            payload,
+            "--samples",
+            "16",
+            "--starts",
+            "1",
+            "--local-evals",
+            "10",
+            "--table",
+            t,
+            "--json",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let rows = gain_table::load(&table).unwrap();
+    assert_eq!(
+        rows.iter().map(|r| r.payload_kg).collect::<Vec<_>>(),
+        [0.0, 0.02],
+        "sorted by payload"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn new_commands_reject_bad_input_with_exit_2() {
+    let dir = scratch("bad2");
+    let bad_csv = dir.join("bad.csv");
+    std::fs::write(&bad_csv, "t_s,torque_nm,theta_rad,root_strain\n0,1,2,x\n").unwrap();
+    let short_csv = dir.join("short.csv");
+    std::fs::write(&short_csv, "t_s,torque_nm\n0,1\n").unwrap();
+    let cases: [&[&str]; 7] = [
+        &["calibrate", "/nonexistent/log.csv"],
+        &["calibrate", bad_csv.to_str().unwrap()],
+        &["calibrate", short_csv.to_str().unwrap()],
+        &["optimize", "--bound", "w=5:1"],
+        &["optimize", "--w2", "nan"],
+        &["sweep", "--spread", "2"],
+        &["simulate", "--params", "/nonexistent/p.toml"],
+    ];
+    for args in cases {
+        let out = beam(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.trim().is_empty() && out.stdout.is_empty(), "{args:?}");
+    }
+    let out = beam(&["calibrate", bad_csv.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("line 2: column `root_strain`"));
+    std::fs::remove_dir_all(dir).ok();
+}

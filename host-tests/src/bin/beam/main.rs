@@ -17,6 +17,7 @@ macro_rules! with_modes {
     };
 }
 
+mod calibrate_cmd;
 mod optimize_cmd;
 mod sweep_cmd;
 
@@ -49,6 +50,8 @@ enum Command {
     Simulate(SimulateArgs),
     /// Design gains by constrained optimisation of the paper's cost J.
     Optimize(optimize_cmd::OptimizeArgs),
+    /// Identify the model's parameters from a logged PD slew (CSV).
+    Calibrate(calibrate_cmd::CalibrateArgs),
     /// Monte Carlo robustness: parameter errors and payloads, SMC against the PD baseline.
     Sweep(sweep_cmd::SweepArgs),
 }
@@ -78,6 +81,9 @@ struct PlantArgs {
     /// Number of flexible modes, 1 to 4.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=4))]
     modes: u8,
+    /// Parameters from a file (as `beam calibrate --out` writes), instead of --preset.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
     /// Tip (payload) mass, kg.
     #[arg(long, value_name = "KG", visible_alias = "payload")]
     tip_mass: Option<f64>,
@@ -181,6 +187,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => run_simulate(&a),
         Command::Optimize(a) => optimize_cmd::run(&a),
         Command::Sweep(a) => sweep_cmd::run(&a),
+        Command::Calibrate(a) => calibrate_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -192,7 +199,10 @@ fn main() -> ExitCode {
 }
 
 fn beam(plant: &PlantArgs) -> Result<Beam, String> {
-    let mut params: BeamParams = Preset::from(plant.preset).params();
+    let mut params: BeamParams = match &plant.params {
+        Some(path) => host_tests::preset_file::load(path)?,
+        None => Preset::from(plant.preset).params(),
+    };
     if let Some(m) = plant.tip_mass {
         params.tip_mass_kg = m;
     }

@@ -1,0 +1,104 @@
+//! `beam calibrate`: identify the model from a logged PD slew and write it as a parameter file.
+
+use crate::{PlantArgs, Preset};
+use clap::Args;
+use host_tests::calibrate::{calibrate, read_log, StepReport, DEFAULT_EVALS};
+use model_core::{Beam, BeamParams, ModalModel};
+use serde_json::json;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct CalibrateArgs {
+    /// The log: CSV with t_s, torque_nm, theta_rad, root_strain [, mid_strain].
+    log: PathBuf,
+    /// The starting guess (preset, or --params FILE), mode count and payload.
+    #[command(flatten)]
+    plant: PlantArgs,
+    /// COBYLA evaluations per local search.
+    #[arg(long, default_value_t = DEFAULT_EVALS)]
+    evals: usize,
+    /// Write the identified parameters here (TOML; `--params FILE` of the other commands).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(a: &CalibrateArgs) -> Result<(), String> {
+    if a.evals == 0 || a.evals > 1_000_000 {
+        return Err(format!("--evals {} must be 1..=1000000", a.evals));
+    }
+    let guess = *crate::beam(&a.plant)?.params();
+    let text = std::fs::read_to_string(&a.log).map_err(|e| format!("{}: {e}", a.log.display()))?;
+    let log = read_log(&text, &a.log.display().to_string())?;
+    let (found, steps) = with_modes!(a.plant.modes, calibrate(&log, &guess, a.evals))?;
+    if let Some(path) = &a.out {
+        let comment = format!("identified by beam calibrate from {}", a.log.display());
+        let text = host_tests::preset_file::render(&found, &comment);
+        host_tests::io::write_atomically(path, |w| w.write_all(text.as_bytes()))
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    let (fm, gm) = with_modes!(a.plant.modes, summary(&found, &guess))?;
+    if a.json {
+        let steps: Vec<_> = steps
+            .iter()
+            .map(|s| {
+                json!({"step": s.name, "window_s": [s.window.0, s.window.1],
+                       "fitted": s.fitted.iter().map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
+                       "rms_theta_err_rad": s.rms_theta_err_rad, "rms_strain_err_ue": s.rms_strain_err_ue})
+            })
+            .collect();
+        println!("{}", json!({"steps": steps, "identified": fm, "guess": gm}));
+        return Ok(());
+    }
+    println!(
+        "calibrated from {} ({} samples), guess: {} preset",
+        a.log.display(),
+        log.t.len(),
+        Preset::from(a.plant.preset).name()
+    );
+    for s in &steps {
+        print_step(s);
+    }
+    println!("  identified: {fm}");
+    println!("  guess was:  {gm}");
+    if let Some(path) = &a.out {
+        println!("  written to {} (use with --params)", path.display());
+    }
+    Ok(())
+}
+
+fn print_step(s: &StepReport) {
+    let fitted: Vec<String> = s
+        .fitted
+        .iter()
+        .map(|(n, v)| format!("{n} {v:.5e}"))
+        .collect();
+    println!(
+        "  step {:18} {:.2}..{:.2} s: {}; RMS error hub {:.2e} rad, root strain {:.2} ue",
+        s.name,
+        s.window.0,
+        s.window.1,
+        fitted.join(", "),
+        s.rms_theta_err_rad,
+        s.rms_strain_err_ue
+    );
+}
+
+/// Derived figures of the identified model and of the guess.
+fn summary<const N: usize>(
+    found: &BeamParams,
+    guess: &BeamParams,
+) -> Result<(serde_json::Value, serde_json::Value), String> {
+    let describe = |p: &BeamParams| -> Result<serde_json::Value, String> {
+        let m = ModalModel::<N>::try_build(&Beam::try_build(*p).map_err(|e| e.to_string())?)
+            .map_err(|e| e.to_string())?;
+        Ok(
+            json!({"jm_kgm2": p.jm_kgm2, "density_kg_m3": p.density_kg_m3, "ei_nm2": p.ei_nm2, "viscous_nms": p.viscous_nms,
+                  "coulomb_nm": p.coulomb_nm, "root_gauge_m": p.root_gauge_m, "mtt": m.mtt, "jeff": m.jeff,
+                  "pinned_hz": m.pinned_hz.to_vec()}),
+        )
+    };
+    Ok((describe(found)?, describe(guess)?))
+}
