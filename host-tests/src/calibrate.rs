@@ -11,10 +11,9 @@
 //! (in parallel), then runs COBYLA from the best sample: with only the hub angle, Jm and the
 //! beam's inertia trade against each other and a purely local search stalls.
 
-use crate::optimize::Param;
+use crate::optimize::{latin_hypercube, Param};
 use crate::plant::{Plant, State};
 use model_core::{Beam, BeamParams, EncoderSpec, ModalModel};
-use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
 
 /// Scale of the hub-angle error: one encoder count, rad.
@@ -293,25 +292,8 @@ fn fit_step<const N: usize>(
     let objective = |u: &[f64], _: &mut ()| {
         fit_error::<N>(&at(u), log, fit).map_or(1e3, |e| e.2.max(1e-300).ln())
     };
-    // Global stage: a Latin hypercube over the bounds (plus the start), best first.
-    let d = which.len();
-    let mut rng = StdRng::seed_from_u64(0x5EED ^ which.len() as u64);
-    let mut columns = Vec::with_capacity(d);
-    for _ in 0..d {
-        let mut strata: Vec<usize> = (0..SAMPLES).collect();
-        for i in (1..SAMPLES).rev() {
-            strata.swap(i, rng.gen_range(0..=i));
-        }
-        columns.push(
-            strata
-                .into_iter()
-                .map(|s| (s as f64 + rng.gen::<f64>()) / SAMPLES as f64)
-                .collect::<Vec<f64>>(),
-        );
-    }
-    let candidates: Vec<Vec<f64>> = (0..SAMPLES)
-        .map(|i| columns.iter().map(|c| c[i]).collect())
-        .collect();
+    // Global stage: a Latin hypercube over the bounds, best first.
+    let candidates = latin_hypercube(SAMPLES, which.len(), 0x5EED ^ which.len() as u64);
     let mut scored: Vec<(f64, Vec<f64>)> = candidates
         .par_iter()
         .map(|u| (objective(u, &mut ()), u.clone()))

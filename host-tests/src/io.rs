@@ -20,6 +20,12 @@ fn temp_beside(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}.tmp{ext}", std::process::id()))
 }
 
+/// An `f32` as the `f64` of its shortest decimal form: 0.1f32 becomes 0.1, not
+/// 0.10000000149011612, so gains print and round-trip through files as they were written.
+pub fn f32_decimal(x: f32) -> f64 {
+    x.to_string().parse::<f64>().unwrap_or(x as f64)
+}
+
 /// Writes `path` through `fill`, atomically.
 pub fn write_atomically(
     path: &Path,

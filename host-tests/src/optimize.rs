@@ -312,6 +312,27 @@ fn score<const N: usize>(
     })
 }
 
+/// `samples` points of a Latin hypercube in the unit cube of `dims` dimensions: one point in
+/// each of `samples` equal strata of every coordinate, strata paired at random (seeded).
+pub fn latin_hypercube(samples: usize, dims: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let columns: Vec<Vec<f64>> = (0..dims)
+        .map(|_| {
+            let mut strata: Vec<usize> = (0..samples).collect();
+            for i in (1..strata.len()).rev() {
+                strata.swap(i, rng.gen_range(0..=i));
+            }
+            strata
+                .into_iter()
+                .map(|s| (s as f64 + rng.gen::<f64>()) / samples as f64)
+                .collect()
+        })
+        .collect();
+    (0..samples)
+        .map(|i| columns.iter().map(|c| c[i]).collect())
+        .collect()
+}
+
 /// Designs gains for `model` per `spec`. `progress(done, total)` is called as evaluations
 /// finish (from several threads).
 pub fn optimize<const N: usize>(
@@ -324,24 +345,8 @@ pub fn optimize<const N: usize>(
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
 
-    // Stage 1: Latin hypercube, one stratum per sample in every dimension.
-    let mut rng = StdRng::seed_from_u64(spec.seed);
-    let mut columns: Vec<Vec<f64>> = Vec::with_capacity(d);
-    for _ in 0..d {
-        let mut strata: Vec<usize> = (0..spec.samples).collect();
-        for i in (1..strata.len()).rev() {
-            strata.swap(i, rng.gen_range(0..=i));
-        }
-        columns.push(
-            strata
-                .into_iter()
-                .map(|s| (s as f64 + rng.gen::<f64>()) / spec.samples as f64)
-                .collect(),
-        );
-    }
-    let units: Vec<Vec<f64>> = (0..spec.samples)
-        .map(|i| columns.iter().map(|c| c[i]).collect())
-        .collect();
+    // Stage 1: Latin hypercube.
+    let units = latin_hypercube(spec.samples, d, spec.seed);
     let to_gains = |u: &[f64]| {
         spec.params
             .iter()

@@ -6,29 +6,41 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Draws `run` into `path` (`.png` or `.svg`), titled `title`.
-pub fn plot(run: &SimResult, title: &str, path: &Path) -> Result<(), String> {
+/// `Ok` when `path` ends in `.png` or `.svg` (checked before any work is done).
+pub fn check_extension(path: &Path) -> Result<(), String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let size = (1200, 900);
     match ext.as_deref() {
-        Some("png") => {
-            let root = BitMapBackend::new(path, size).into_drawing_area();
-            draw(run, title, &root)?;
-            root.present().map_err(|e| e.to_string())
-        }
-        Some("svg") => {
-            let root = SVGBackend::new(path, size).into_drawing_area();
-            draw(run, title, &root)?;
-            root.present().map_err(|e| e.to_string())
-        }
+        Some("png" | "svg") => Ok(()),
         _ => Err(format!(
             "plot file {} must end in .png or .svg",
             path.display()
         )),
     }
+}
+
+/// Draws with `$draw(&root)` on a PNG or SVG backend chosen by `$path`'s extension.
+macro_rules! render {
+    ($path:expr, $size:expr, $draw:ident ( $($arg:expr),* )) => {{
+        check_extension($path)?;
+        let is_png = $path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if is_png {
+            let root = BitMapBackend::new($path, $size).into_drawing_area();
+            $draw($($arg,)* &root)?;
+            root.present().map_err(|e| e.to_string())
+        } else {
+            let root = SVGBackend::new($path, $size).into_drawing_area();
+            $draw($($arg,)* &root)?;
+            root.present().map_err(|e| e.to_string())
+        }
+    }};
+}
+
+/// Draws `run` into `path` (`.png` or `.svg`), titled `title`.
+pub fn plot(run: &SimResult, title: &str, path: &Path) -> Result<(), String> {
+    render!(path, (1200, 900), draw(run, title))
 }
 
 type Series<'a> = (&'a str, Vec<(f64, f64)>, RGBColor);
@@ -138,27 +150,8 @@ pub fn histograms(
     panels: &[HistogramPanel],
     path: &Path,
 ) -> Result<(), String> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
     let size = (600 * panels.len().max(1) as u32, 500);
-    match ext.as_deref() {
-        Some("png") => {
-            let root = BitMapBackend::new(path, size).into_drawing_area();
-            draw_histograms(title, labels, panels, &root)?;
-            root.present().map_err(|e| e.to_string())
-        }
-        Some("svg") => {
-            let root = SVGBackend::new(path, size).into_drawing_area();
-            draw_histograms(title, labels, panels, &root)?;
-            root.present().map_err(|e| e.to_string())
-        }
-        _ => Err(format!(
-            "plot file {} must end in .png or .svg",
-            path.display()
-        )),
-    }
+    render!(path, size, draw_histograms(title, labels, panels))
 }
 
 fn draw_histograms<DB: DrawingBackend>(

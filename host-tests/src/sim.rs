@@ -216,7 +216,7 @@ pub fn run<const N: usize, const K: usize>(
     // The tick as the decimal it was written as (1e-3, not f32's 1.0000000475e-3): the drive's
     // timer period is exact, and the sample times print cleanly.
     let ts_f32 = controller.settings().ts_s;
-    let ts = ts_f32.to_string().parse::<f64>().unwrap_or(ts_f32 as f64);
+    let ts = crate::io::f32_decimal(ts_f32);
     let theta_home = controller.settings().theta_home_rad as f64;
     let mut sensors = Sensors::new(opts.sensors, theta_home);
     let mut x = State::<N>::at_rest(controller.spline().start() as f64);

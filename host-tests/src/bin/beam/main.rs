@@ -341,16 +341,7 @@ fn run_simulate(a: &SimulateArgs) -> Result<(), String> {
         ..SimOptions::default()
     };
     if let Some(path) = &a.plot {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        if !matches!(ext.as_deref(), Some("png" | "svg")) {
-            return Err(format!(
-                "--plot {}: the file must end in .png or .svg",
-                path.display()
-            ));
-        }
+        plot::check_extension(path)?;
     }
     let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;
     let m = metrics(&run);
@@ -398,7 +389,7 @@ fn simulate_n<const N: usize>(
 fn gains_json(law: &Law) -> serde_json::Value {
     // An f32 gain printed through f64 would show 0.1 as 0.10000000149011612: go by its
     // shortest decimal form instead.
-    let f = |x: f32| x.to_string().parse::<f64>().unwrap_or(f64::NAN);
+    let f = host_tests::io::f32_decimal;
     match law {
         Law::Pd(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
         Law::Smc(g) | Law::SmcStrain(g) => json!({

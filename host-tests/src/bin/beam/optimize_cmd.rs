@@ -288,7 +288,7 @@ fn write_row(
         o.best.law,
     );
     // Store the f32 gains the drive will run, by their shortest decimals.
-    let f = |x: f32| x.to_string().parse::<f64>().unwrap_or(f64::NAN);
+    let f = host_tests::io::f32_decimal;
     match law {
         Law::Pd(g) => (row.kp, row.kd) = (f(g.kp), f(g.kd)),
         Law::Smc(g) | Law::SmcStrain(g) => {

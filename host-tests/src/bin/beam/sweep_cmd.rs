@@ -78,19 +78,8 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
     if a.cases == 0 || a.cases > 1_000_000 {
         return Err(format!("--cases {} must be 1..=1000000", a.cases));
     }
-    for (flag, path) in [("--plot", &a.plot)] {
-        if let Some(p) = path {
-            let ext = p
-                .extension()
-                .and_then(|e| e.to_str())
-                .map(str::to_ascii_lowercase);
-            if !matches!(ext.as_deref(), Some("png" | "svg")) {
-                return Err(format!(
-                    "{flag} {}: the file must end in .png or .svg",
-                    p.display()
-                ));
-            }
-        }
+    if let Some(path) = &a.plot {
+        host_tests::plot::check_extension(path)?;
     }
     let nominal = *beam(&a.plant)?.params();
     let kind = controller_name(a.controller);
