@@ -13,9 +13,10 @@ mod drive {
     use cortex_m::interrupt::Mutex;
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m_rt::{entry, exception};
+    use model_core::gains::{schedule, GAIN_TABLE};
     use model_core::{
-        Beam, BeamParams, ControlLaw, Controller, ControllerSettings, Law, ModalModel,
-        RawMeasurement, SmcGains, Spline, Switching,
+        Beam, BeamParams, ControlLaw, Controller, ControllerSettings, ModalModel, RawMeasurement,
+        Spline,
     };
     use panic_halt as _;
 
@@ -23,22 +24,20 @@ mod drive {
     const CORE_HZ: u32 = 16_000_000;
     /// Control rate, Hz.
     const LOOP_HZ: u32 = 1_000;
+    /// The payload this drive carries, kg: picks the gains from the compiled gain table.
+    const PAYLOAD_KG: f32 = 0.0;
 
     static CONTROLLER: Mutex<RefCell<Option<Controller<2>>>> = Mutex::new(RefCell::new(None));
 
     /// Builds the controller; `None` if the compiled-in configuration is invalid.
     fn build_controller() -> Option<Controller<2>> {
-        let beam = Beam::try_build(BeamParams::aluminium()).ok()?;
-        let model = ModalModel::<3>::try_build(&beam).ok()?;
-        let gains = SmcGains {
-            w: 20.0,
-            a: 10.0,
-            beta: 0.5,
-            c: 0.0,
-            switching: Switching::Tanh,
-            model_terms: false,
+        let params = BeamParams {
+            tip_mass_kg: PAYLOAD_KG as f64,
+            ..BeamParams::aluminium()
         };
-        let law = ControlLaw::try_build(Law::Smc(gains), &model).ok()?;
+        let model = ModalModel::<3>::try_build(&Beam::try_build(params).ok()?).ok()?;
+        // Gains from gains.toml, validated by the build and scheduled on the payload here.
+        let law = ControlLaw::try_build(schedule(GAIN_TABLE, "smc", PAYLOAD_KG)?, &model).ok()?;
         let half_pi = core::f32::consts::FRAC_PI_2;
         let spline = Spline::quintic(-half_pi, half_pi, 0.35).ok()?;
         Controller::try_build(ControllerSettings::default(), law, spline).ok()
