@@ -39,6 +39,7 @@ fn controller_step(c: &mut Criterion) {
         encoder_raw: 0,
         strain_root_code: 100,
         amp_fault: false,
+        driver_fault: false,
     };
     c.bench_function("controller step (paper SMC)", |b| {
         b.iter(|| black_box(ctl.step(black_box(&raw))))

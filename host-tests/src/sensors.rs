@@ -81,6 +81,7 @@ impl Sensors {
             encoder_raw: raw_counter,
             strain_root_code: code,
             amp_fault,
+            driver_fault: false,
         }
     }
 

@@ -27,6 +27,9 @@ pub struct RawMeasurement {
     pub strain_root_code: i32,
     /// The amplifier's fault input is asserted.
     pub amp_fault: bool,
+    /// A sensor or output driver failed this tick or the last (a bus error, a bridge ADC that
+    /// stopped converting): the readings above cannot be trusted.
+    pub driver_fault: bool,
 }
 
 /// Controller mode.
@@ -62,15 +65,18 @@ impl FaultFlags {
     pub const AMP_FAULT: FaultFlags = FaultFlags(1 << 4);
     /// A move was started with the hub away from the move's start position.
     pub const START_MISMATCH: FaultFlags = FaultFlags(1 << 5);
+    /// A driver reported a failure (see [`RawMeasurement::driver_fault`]).
+    pub const DRIVER: FaultFlags = FaultFlags(1 << 6);
 
     /// Names for display, in bit order.
-    const NAMES: [&'static str; 6] = [
+    const NAMES: [&'static str; 7] = [
         "non-finite",
         "adc-rail",
         "encoder-jump",
         "over-strain",
         "amp-fault",
         "start-mismatch",
+        "driver",
     ];
 
     /// True when no fault is set.
@@ -350,6 +356,16 @@ impl<const K: usize> Controller<K> {
         Ok(())
     }
 
+    /// Swaps in the next move (validated when it was built). Refused while slewing; the move
+    /// starts with [`Controller::start_move`].
+    pub fn set_spline(&mut self, spline: Spline<K>) -> Result<(), CommandError> {
+        if self.st.mode == Mode::Slewing {
+            return Err(CommandError::Busy);
+        }
+        self.cfg.spline = spline;
+        Ok(())
+    }
+
     /// The current mode.
     pub fn mode(&self) -> Mode {
         self.st.mode
@@ -426,6 +442,9 @@ impl<const K: usize> Controller<K> {
         if raw.amp_fault {
             faults.insert(FaultFlags::AMP_FAULT);
         }
+        if raw.driver_fault {
+            faults.insert(FaultFlags::DRIVER);
+        }
         if !(theta.is_finite()
             && omega.is_finite()
             && strain.is_finite()
@@ -472,7 +491,9 @@ impl<const K: usize> Controller<K> {
         }
         let limit = s.torque_limit_nm;
         TorqueCommand {
-            torque_nm: torque.clamp(-limit, limit),
+            // Not `clamp`: its min <= max assertion would put a panic on the tick path, and
+            // the limit was validated positive when the controller was built.
+            torque_nm: torque.max(-limit).min(limit),
             mode: st.mode,
             faults: st.faults,
             theta_rad: theta,
@@ -554,8 +575,37 @@ mod tests {
     }
 
     #[test]
+    fn the_next_move_is_swapped_in_between_moves_only() {
+        let half_pi = core::f32::consts::FRAC_PI_2;
+        let back = Spline::quintic(half_pi, -half_pi, 0.35).unwrap();
+        let mut c = controller(Law::Pd(PdGains::BASELINE));
+        c.step(&RawMeasurement::default());
+        c.start_move().unwrap();
+        c.step(&RawMeasurement::default());
+        assert_eq!(c.set_spline(back.clone()), Err(CommandError::Busy));
+        // The hub never left -90 deg, so a move that starts at +90 deg is refused at the
+        // next tick as a start mismatch, not run.
+        for _ in 0..400 {
+            c.step(&RawMeasurement::default());
+        }
+        assert_eq!(c.mode(), Mode::Holding);
+        c.set_spline(back).unwrap();
+        c.start_move().unwrap();
+        let out = c.step(&RawMeasurement::default());
+        assert_eq!(out.mode, Mode::Fault);
+        assert!(out.faults.contains(FaultFlags::START_MISMATCH));
+    }
+
+    #[test]
     fn each_bad_reading_names_its_fault() {
-        let cases: [(RawMeasurement, FaultFlags); 3] = [
+        let cases: [(RawMeasurement, FaultFlags); 4] = [
+            (
+                RawMeasurement {
+                    driver_fault: true,
+                    ..Default::default()
+                },
+                FaultFlags::DRIVER,
+            ),
             (
                 RawMeasurement {
                     strain_root_code: i32::MAX,
@@ -667,18 +717,18 @@ mod tests {
         fn step_is_total_and_bounded(
             law_pick in 0usize..3,
             starts in prop::collection::vec(any::<bool>(), 1..60),
-            raws in prop::collection::vec((any::<u32>(), any::<i32>(), any::<bool>()), 1..60),
+            raws in prop::collection::vec((any::<u32>(), any::<i32>(), any::<bool>(), any::<bool>()), 1..60),
         ) {
             let laws = [Law::Pd(PdGains::BASELINE), SMC, Law::SmcStrain(SmcGains { c: -50.0, model_terms: true, ..match SMC { Law::Smc(g) => g, _ => unreachable!() } })];
             let mut c = controller(laws[law_pick]);
-            for (i, (enc, code, amp)) in raws.into_iter().enumerate() {
+            for (i, (enc, code, amp, drv)) in raws.into_iter().enumerate() {
                 if starts[i % starts.len()] {
                     let _ = c.start_move();
                 }
                 if i % 17 == 16 {
                     c.reset();
                 }
-                let out = c.step(&RawMeasurement { encoder_raw: enc, strain_root_code: code, amp_fault: amp });
+                let out = c.step(&RawMeasurement { encoder_raw: enc, strain_root_code: code, amp_fault: amp, driver_fault: drv });
                 prop_assert!(out.torque_nm.is_finite() && out.torque_nm.abs() <= 10.0);
                 if !matches!(out.mode, Mode::Slewing | Mode::Holding) {
                     prop_assert_eq!(out.torque_nm, 0.0);

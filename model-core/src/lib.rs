@@ -31,7 +31,8 @@ pub const DEFAULT_TS_S: f32 = 1.0e-3;
 pub use beam::{Beam, BeamParams, ParamError, Preset};
 
 pub use controller::{
-    ConfigError, Controller, ControllerSettings, FaultFlags, Mode, RawMeasurement, TorqueCommand,
+    CommandError, ConfigError, Controller, ControllerSettings, FaultFlags, Mode, RawMeasurement,
+    TorqueCommand,
 };
 pub use law::{ControlLaw, Law, PdGains, SmcGains, Switching};
 pub use measure::{AdcSpec, EncoderSpec};

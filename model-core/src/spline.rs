@@ -168,13 +168,22 @@ impl<const K: usize> Spline<K> {
                 acc: 0.0,
             };
         }
-        let seg = self
+        // A built spline has at least one segment; the fallback keeps this path free of
+        // index panics all the same (the firmware's tick is checked to contain none).
+        match self
             .segments
             .iter()
             .rev()
             .find(|s| t_s >= s.t0_s)
-            .unwrap_or(&self.segments[0]);
-        Self::eval_in(seg, t_s)
+            .or_else(|| self.segments.first())
+        {
+            Some(seg) => Self::eval_in(seg, t_s),
+            None => RefPoint {
+                pos: self.start,
+                vel: 0.0,
+                acc: 0.0,
+            },
+        }
     }
 
     /// Evaluates one segment's polynomial at `t_s`, clamped to that segment.

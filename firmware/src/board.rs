@@ -1,0 +1,222 @@
+//! The STM32F405RG motor drive: every concrete HAL type, pin and clock is named here and
+//! nowhere else (stabilizer's `hardware` pattern). The rest of the firmware sees embedded-hal
+//! traits through [`firmware::drive::Drive`].
+//!
+//! Pin map (an ODrive-style layout: the encoder on TIM3 as on its M0 connector):
+//!
+//! | signal                  | pin       | peripheral                        |
+//! |-------------------------|-----------|-----------------------------------|
+//! | hub encoder A/B         | PB4, PB5  | TIM3 encoder mode, 16-bit         |
+//! | bridge ADC SCK/MISO/MOSI| PA5-PA7   | SPI1, mode 1, 4 MHz               |
+//! | bridge ADC /CS, /DRDY   | PA4, PA3  | GPIO out, GPIO in                 |
+//! | amplifier PWM           | PA8       | TIM1 CH1, 20 kHz                  |
+//! | amplifier DIR, ENABLE   | PB12, PB13| GPIO out                          |
+//! | amplifier /FAULT        | PB14      | GPIO in, pull-up (open drain)     |
+//! | START, CLEAR FAULT      | PC0, PC1  | GPIO in, pull-up (active low)     |
+//! | 1 kHz loop tick         | -         | TIM2 update interrupt             |
+
+use embedded_hal_bus::spi::ExclusiveDevice;
+use firmware::ads1220::{self, Ads1220};
+use firmware::amplifier::{Amplifier, TorqueScale};
+use firmware::drive::{Drive, QuadratureCounter};
+use firmware::moves::{self, MOVE_KNOTS};
+use firmware::operator::Operator;
+use stm32f4xx_hal::{
+    gpio::{Input, Output, Pin, PinState, PushPull},
+    pac,
+    prelude::*,
+    qei::Qei,
+    rcc::Config,
+    spi::{self, Spi},
+    timer::{CounterHz, Event, PwmChannel, SysDelay},
+    watchdog::IndependentWatchdog,
+};
+
+/// The board's crystal, Hz.
+pub const HSE_HZ: u32 = 8_000_000;
+/// Core clock, Hz.
+pub const SYSCLK_HZ: u32 = 168_000_000;
+/// Control loop rate, Hz (model-core's `DEFAULT_TS_S` is its period).
+pub const LOOP_HZ: u32 = 1_000;
+/// Amplifier PWM frequency, Hz: above hearing, well within the amplifier's input range.
+pub const PWM_HZ: u32 = 20_000;
+/// Bridge ADC SPI clock, Hz (the ADS1220 allows up to 6.6 MHz).
+pub const ADC_SPI_HZ: u32 = 4_000_000;
+/// Watchdog timeout, ms: ten missed ticks reset the MCU.
+pub const WATCHDOG_MS: u32 = 10;
+/// Torque at 100 % PWM duty, N m (the amplifier's current scale times the motor's torque
+/// constant). Equal to the controller's torque limit, so saturation never clips twice.
+pub const FULL_SCALE_TORQUE_NM: f32 = 10.0;
+/// GPIOB pin of the amplifier's enable line; the panic path drives it through the registers.
+const ENABLE_PIN: u8 = 13;
+
+/// The hub encoder counter.
+pub struct Encoder(Qei<pac::TIM3>);
+impl QuadratureCounter for Encoder {
+    fn count(&mut self) -> u32 {
+        use stm32f4xx_hal::hal_02::Qei as _;
+        self.0.count() as u32
+    }
+}
+
+/// The bridge ADC's bus: SPI1 with its chip select.
+pub type AdcBus = ExclusiveDevice<Spi<pac::SPI1>, Pin<'A', 4, Output<PushPull>>, SysDelay>;
+/// The bridge ADC's data-ready line.
+pub type AdcReady = Pin<'A', 3, Input>;
+/// The amplifier's PWM input.
+pub type TorquePwm = PwmChannel<pac::TIM1, 0>;
+/// The amplifier's direction input.
+pub type Direction = Pin<'B', 12, Output<PushPull>>;
+/// The amplifier's enable input.
+pub type Enable = Pin<'B', ENABLE_PIN, Output<PushPull>>;
+/// The amplifier's fault output.
+pub type AmpFault = Pin<'B', 14, Input>;
+/// The drive on this board.
+pub type BoardDrive =
+    Drive<MOVE_KNOTS, Encoder, AdcBus, AdcReady, TorquePwm, Direction, Enable, AmpFault>;
+/// The operator's buttons.
+pub type BoardOperator = Operator<MOVE_KNOTS, 2, Pin<'C', 0, Input>, Pin<'C', 1, Input>>;
+
+/// What the loop owns.
+pub struct Board {
+    /// Sensors, controller, amplifier.
+    pub drive: BoardDrive,
+    /// START and CLEAR FAULT.
+    pub operator: BoardOperator,
+    /// The timer whose update interrupt is the tick.
+    pub loop_timer: CounterHz<pac::TIM2>,
+    /// Fed once per tick.
+    pub watchdog: IndependentWatchdog,
+}
+
+/// Why the board did not come up. The amplifier is never enabled in any of these cases.
+#[derive(Clone, Copy, Debug, defmt::Format)]
+pub enum BringUpError {
+    /// The compiled-in configuration.
+    Config(moves::BuildError),
+    /// The loop timer refused the rate.
+    LoopTimer,
+    /// The amplifier's pins (infallible on this MCU; kept for completeness).
+    Amplifier,
+}
+
+/// Clocks, pins, peripherals; the amplifier disabled; the watchdog and the tick started.
+/// A bridge ADC that does not answer does not stop bring-up: the drive comes up with a
+/// driver fault latched, visible in telemetry; CLEAR FAULT cannot clear it for long, since an
+/// unconfigured converter never signals data and the stale-data check trips again.
+pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, BringUpError> {
+    let mut rcc = dp.RCC.freeze(
+        Config::hse(HSE_HZ.Hz())
+            .sysclk(SYSCLK_HZ.Hz())
+            .pclk1(42.MHz())
+            .pclk2(84.MHz()),
+    );
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiob = dp.GPIOB.split(&mut rcc);
+    let gpioc = dp.GPIOC.split(&mut rcc);
+
+    // The amplifier first, so that it is held disabled before anything else runs.
+    let enable: Enable = gpiob.pb13.into_push_pull_output_in_state(PinState::Low);
+    let direction: Direction = gpiob.pb12.into_push_pull_output();
+    let (_, (pwm, ..)) = dp.TIM1.pwm_hz(PWM_HZ.Hz(), &mut rcc);
+    let mut pwm: TorquePwm = pwm.with(gpioa.pa8);
+    pwm.enable();
+    let amp = Amplifier::new(
+        pwm,
+        direction,
+        enable,
+        TorqueScale {
+            full_scale_nm: FULL_SCALE_TORQUE_NM,
+        },
+    )
+    .map_err(|_| BringUpError::Amplifier)?;
+
+    // PB4 comes out of reset as the JTAG NJTRST (AF0); SWD does not need it.
+    let encoder = Encoder(Qei::new(
+        dp.TIM3,
+        (gpiob.pb4.into_input(), gpiob.pb5),
+        &mut rcc,
+    ));
+
+    let spi_bus = Spi::new(
+        dp.SPI1,
+        (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
+        spi::Mode {
+            polarity: spi::Polarity::IdleLow,
+            phase: spi::Phase::CaptureOnSecondTransition,
+        },
+        ADC_SPI_HZ.Hz(),
+        &mut rcc,
+    );
+    let cs = gpioa.pa4.into_push_pull_output_in_state(PinState::High);
+    let delay = cp.SYST.delay(&rcc.clocks);
+    let bus: AdcBus = match ExclusiveDevice::new(spi_bus, cs, delay) {
+        Ok(bus) => bus,
+        Err(never) => match never {},
+    };
+    let mut adc = Ads1220::new(bus, gpioa.pa3.into_floating_input());
+    let adc_ok = adc.init(&ads1220::Config::BRIDGE_1KSPS);
+    if let Err(e) = adc_ok {
+        let what = match e {
+            ads1220::Error::Spi(_) => "SPI error",
+            ads1220::Error::DataReady(_) => "DRDY pin error",
+            ads1220::Error::ConfigMismatch { .. } => "configuration read back wrong",
+        };
+        defmt::error!("bridge ADC: {=str}", what);
+    }
+
+    let controller = moves::build_controller().map_err(BringUpError::Config)?;
+    let sequence = moves::sequence().map_err(BringUpError::Config)?;
+    let mut drive = Drive::new(
+        controller,
+        encoder,
+        adc,
+        amp,
+        gpiob.pb14.into_pull_up_input(),
+    );
+    if adc_ok.is_err() {
+        drive.report_driver_failure();
+    }
+    let operator = Operator::new(
+        gpioc.pc0.into_pull_up_input(),
+        gpioc.pc1.into_pull_up_input(),
+        sequence,
+    );
+
+    let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+    // Halting in the debugger must not reset the drive.
+    watchdog.stop_on_debug(&dp.DBGMCU, true);
+    watchdog.start(WATCHDOG_MS.millis());
+
+    let mut loop_timer = dp.TIM2.counter_hz(&mut rcc);
+    loop_timer
+        .start(LOOP_HZ.Hz())
+        .map_err(|_| BringUpError::LoopTimer)?;
+    loop_timer.listen(Event::Update);
+
+    Ok(Board {
+        drive,
+        operator,
+        loop_timer,
+        watchdog,
+    })
+}
+
+/// Torque off through the registers, whatever state the HAL objects are in: enable low,
+/// duty zero, TIM1's main output off. For the panic and HardFault handlers, where the
+/// owners of these peripherals can no longer be trusted or reached.
+pub fn safe_state() {
+    // SAFETY: single writes to a set/reset register and to TIM1's compare and break
+    // registers. They race with nothing: the handlers that call this never return, and a
+    // tick that preempts them writes the same safe values (the controller is faulted or its
+    // state is being abandoned).
+    unsafe {
+        let gpiob = &*pac::GPIOB::ptr();
+        gpiob
+            .bsrr()
+            .write(|w| w.bits(1 << (16 + ENABLE_PIN as u32)));
+        let tim1 = &*pac::TIM1::ptr();
+        tim1.ccr1().write(|w| w.bits(0));
+        tim1.bdtr().modify(|_, w| w.moe().clear_bit());
+    }
+}

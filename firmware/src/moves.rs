@@ -1,0 +1,86 @@
+//! The drive's compiled-in configuration: which beam, which payload, which gains, which moves.
+//!
+//! Built once at start-up, outside the loop, and validated there: if anything here is wrong
+//! the drive never enables the amplifier. The gains come from the table compiled from
+//! `gains.toml` (model-core's `GAIN_TABLE`), scheduled on the payload.
+
+use model_core::gains::{schedule, GAIN_TABLE};
+use model_core::{
+    Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, ModalModel,
+    ModelError, ParamError, Spline, SplineError,
+};
+
+/// Knots per move: the paper's moves are single quintic segments.
+pub const MOVE_KNOTS: usize = 2;
+/// The payload this drive carries, kg.
+pub const PAYLOAD_KG: f32 = 0.0;
+/// The controller the drive runs (a row name in `gains.toml`).
+pub const CONTROLLER: &str = "smc";
+/// The paper's slew: -90 deg to +90 deg in 0.35 s, and back.
+pub const SLEW_FROM_RAD: f32 = -core::f32::consts::FRAC_PI_2;
+/// End of the outward slew, rad.
+pub const SLEW_TO_RAD: f32 = core::f32::consts::FRAC_PI_2;
+/// Duration of each slew, s.
+pub const SLEW_TIME_S: f32 = 0.35;
+
+/// Why the compiled-in configuration is unusable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum BuildError {
+    /// The beam parameters.
+    Beam(ParamError),
+    /// The modal model.
+    Model(ModelError),
+    /// The gain table has no row for [`CONTROLLER`].
+    NoGains,
+    /// The gains.
+    Gains(ParamError),
+    /// The controller settings.
+    Config(ConfigError),
+    /// A move.
+    Move(SplineError),
+}
+
+/// The controller for the aluminium beam with [`PAYLOAD_KG`], idle, armed with the first move.
+pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
+    let params = BeamParams {
+        tip_mass_kg: PAYLOAD_KG as f64,
+        ..BeamParams::aluminium()
+    };
+    let beam = Beam::try_build(params).map_err(BuildError::Beam)?;
+    let model = ModalModel::<3>::try_build(&beam).map_err(BuildError::Model)?;
+    let gains = schedule(GAIN_TABLE, CONTROLLER, PAYLOAD_KG).ok_or(BuildError::NoGains)?;
+    let law = ControlLaw::try_build(gains, &model).map_err(BuildError::Gains)?;
+    let settings = ControllerSettings {
+        theta_home_rad: SLEW_FROM_RAD,
+        torque_limit_nm: params.torque_limit_nm as f32,
+        ..ControllerSettings::default()
+    };
+    let [first, _] = sequence()?;
+    Controller::try_build(settings, law, first).map_err(BuildError::Config)
+}
+
+/// The move sequence the start button steps through: out to +90 deg, back to -90 deg.
+pub fn sequence() -> Result<[Spline<MOVE_KNOTS>; 2], BuildError> {
+    let out = Spline::quintic(SLEW_FROM_RAD, SLEW_TO_RAD, SLEW_TIME_S).map_err(BuildError::Move)?;
+    let back =
+        Spline::quintic(SLEW_TO_RAD, SLEW_FROM_RAD, SLEW_TIME_S).map_err(BuildError::Move)?;
+    Ok([out, back])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use model_core::Mode;
+
+    #[test]
+    fn the_compiled_configuration_builds_and_starts_idle() {
+        let c = build_controller().unwrap();
+        assert_eq!(c.mode(), Mode::Idle);
+        assert_eq!(c.spline().start(), SLEW_FROM_RAD);
+        let [out, back] = sequence().unwrap();
+        // The sequence closes: each move starts where the previous one ends.
+        assert_eq!(out.end(), back.start());
+        assert_eq!(back.end(), out.start());
+    }
+}
