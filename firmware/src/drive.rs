@@ -60,6 +60,27 @@ pub struct Telemetry {
     pub faults: FaultFlags,
 }
 
+#[cfg(target_os = "none")]
+impl Telemetry {
+    /// Writes the sample to defmt in the fixed `tlm` format that `beam telemetry` turns into
+    /// the CSV `beam calibrate` reads: tick, encoder count, strain code, torque, angle,
+    /// reference, strain, mode (0 idle, 1 slewing, 2 holding, 3 fault), fault bits.
+    pub fn log(&self) {
+        defmt::info!(
+            "tlm {=u32} {=u32} {=i32} {=f32} {=f32} {=f32} {=f32} {=u8} {=u8}",
+            self.tick,
+            self.encoder_raw,
+            self.strain_code,
+            self.torque_nm,
+            self.theta_rad,
+            self.theta_ref_rad,
+            self.strain,
+            self.mode as u8,
+            self.faults.0
+        );
+    }
+}
+
 /// The controller with its sensors and actuator.
 pub struct Drive<const K: usize, Q, SPI, DRDY, PWM, DIR, EN, FLT> {
     controller: Controller<K>,

@@ -11,3 +11,4 @@ pub mod amplifier;
 pub mod drive;
 pub mod moves;
 pub mod operator;
+pub mod pil;

@@ -47,7 +47,7 @@ mod app {
         defmt::info!(
             "drive up: {} Hz loop, gains `{}` at {} kg",
             board::LOOP_HZ,
-            firmware::moves::CONTROLLER,
+            firmware::moves::CONTROLLER.name(),
             firmware::moves::PAYLOAD_KG
         );
         let (telemetry_in, telemetry_out) = cx.local.queue.split();
@@ -78,7 +78,7 @@ mod app {
     fn idle(cx: idle::Context) -> ! {
         loop {
             if let Some(t) = cx.local.telemetry_out.dequeue() {
-                defmt::info!("{}", t);
+                t.log();
             }
         }
     }

@@ -6,16 +6,49 @@
 
 use model_core::gains::{schedule, GAIN_TABLE};
 use model_core::{
-    Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, ModalModel,
-    ModelError, ParamError, Spline, SplineError,
+    Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, Law, ModalModel,
+    ModelError, ParamError, PdGains, Spline, SplineError,
 };
+use serde::{Deserialize, Serialize};
 
 /// Knots per move: the paper's moves are single quintic segments.
 pub const MOVE_KNOTS: usize = 2;
 /// The payload this drive carries, kg.
 pub const PAYLOAD_KG: f32 = 0.0;
-/// The controller the drive runs (a row name in `gains.toml`).
-pub const CONTROLLER: &str = "smc";
+/// The controller the drive runs.
+pub const CONTROLLER: ControllerKind = ControllerKind::Smc;
+
+/// The control laws the drive can run: the SMCs with gains from the compiled table, PD with
+/// the baseline gains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum ControllerKind {
+    /// The PD baseline.
+    Pd,
+    /// The paper's SMC.
+    Smc,
+    /// The strain-augmented SMC.
+    SmcStrain,
+}
+
+impl ControllerKind {
+    /// The name used in `gains.toml` and on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ControllerKind::Pd => "pd",
+            ControllerKind::Smc => "smc",
+            ControllerKind::SmcStrain => "smc-strain",
+        }
+    }
+
+    /// The law for `payload_kg`: table rows interpolated on the payload, or PD's baseline.
+    pub fn law(self, payload_kg: f32) -> Option<Law> {
+        match self {
+            ControllerKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
+            kind => schedule(GAIN_TABLE, kind.name(), payload_kg),
+        }
+    }
+}
 /// The paper's slew: -90 deg to +90 deg in 0.35 s, and back.
 pub const SLEW_FROM_RAD: f32 = -core::f32::consts::FRAC_PI_2;
 /// End of the outward slew, rad.
@@ -31,7 +64,7 @@ pub enum BuildError {
     Beam(ParamError),
     /// The modal model.
     Model(ModelError),
-    /// The gain table has no row for [`CONTROLLER`].
+    /// The gain table has no row for the controller.
     NoGains,
     /// The gains.
     Gains(ParamError),
@@ -41,15 +74,23 @@ pub enum BuildError {
     Move(SplineError),
 }
 
-/// The controller for the aluminium beam with [`PAYLOAD_KG`], idle, armed with the first move.
+/// The drive's controller ([`CONTROLLER`] at [`PAYLOAD_KG`]), idle, armed with the first move.
 pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
+    build_controller_for(CONTROLLER, PAYLOAD_KG)
+}
+
+/// The controller for the aluminium beam (3-mode model) carrying `payload_kg`, running `kind`.
+pub fn build_controller_for(
+    kind: ControllerKind,
+    payload_kg: f32,
+) -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let params = BeamParams {
-        tip_mass_kg: PAYLOAD_KG as f64,
+        tip_mass_kg: payload_kg as f64,
         ..BeamParams::aluminium()
     };
     let beam = Beam::try_build(params).map_err(BuildError::Beam)?;
     let model = ModalModel::<3>::try_build(&beam).map_err(BuildError::Model)?;
-    let gains = schedule(GAIN_TABLE, CONTROLLER, PAYLOAD_KG).ok_or(BuildError::NoGains)?;
+    let gains = kind.law(payload_kg).ok_or(BuildError::NoGains)?;
     let law = ControlLaw::try_build(gains, &model).map_err(BuildError::Gains)?;
     let settings = ControllerSettings {
         theta_home_rad: SLEW_FROM_RAD,
@@ -58,6 +99,17 @@ pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
     };
     let [first, _] = sequence()?;
     Controller::try_build(settings, law, first).map_err(BuildError::Config)
+}
+
+/// The move of `moves` whose start is nearest `theta_rad` (none for a non-finite angle).
+pub fn nearest<const K: usize>(moves: &[Spline<K>], theta_rad: f32) -> Option<&Spline<K>> {
+    if !theta_rad.is_finite() {
+        return None;
+    }
+    let distance = |s: &Spline<K>| libm::fabsf(s.start() - theta_rad);
+    moves
+        .iter()
+        .min_by(|a, b| distance(a).total_cmp(&distance(b)))
 }
 
 /// The move sequence the start button steps through: out to +90 deg, back to -90 deg.

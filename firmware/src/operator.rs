@@ -69,15 +69,9 @@ impl<const K: usize, const M: usize, S: InputPin, C: InputPin> Operator<K, M, S,
         None
     }
 
-    /// The move whose start is nearest `theta_rad` (none for a non-finite angle).
+    /// The move whose start is nearest `theta_rad`.
     fn nearest(&self, theta_rad: f32) -> Option<&Spline<K>> {
-        if !theta_rad.is_finite() {
-            return None;
-        }
-        let distance = |s: &Spline<K>| libm::fabsf(s.start() - theta_rad);
-        self.moves
-            .iter()
-            .min_by(|a, b| distance(a).total_cmp(&distance(b)))
+        crate::moves::nearest(&self.moves, theta_rad)
     }
 }
 

@@ -10,7 +10,8 @@ use crate::plant::{Breakdown, Plant, State};
 use crate::sensors::{SensorConfig, Sensors};
 use model_core::controller::ConfigError;
 use model_core::{
-    ControlLaw, Controller, ControllerSettings, Law, ModalModel, Mode, SmcGains, Spline, Switching,
+    ControlLaw, Controller, ControllerSettings, Law, ModalModel, Mode, RawMeasurement, SmcGains,
+    Spline, Switching, TorqueCommand,
 };
 use std::fmt;
 
@@ -143,6 +144,8 @@ pub enum SimError {
     Spline(model_core::SplineError),
     /// An option is out of range.
     Option(&'static str),
+    /// The drive on the other end of the loop failed (the PIL drive under QEMU).
+    Drive(String),
 }
 
 impl fmt::Display for SimError {
@@ -151,6 +154,7 @@ impl fmt::Display for SimError {
             SimError::Config(e) => write!(f, "{e}"),
             SimError::Spline(e) => write!(f, "move: {e}"),
             SimError::Option(what) => write!(f, "{what}"),
+            SimError::Drive(why) => write!(f, "{why}"),
         }
     }
 }
@@ -202,10 +206,52 @@ pub fn simulate_mismatched<const N: usize>(
     run(Plant::new(*plant), controller, opts)
 }
 
+/// The drive side of the closed loop: what turns one tick's raw readings into a command.
+/// The host's own [`Controller`], or the firmware running under QEMU (`crate::pil`).
+pub trait DriveLoop {
+    /// The controller's settings (tick, home angle, sensor scales).
+    fn settings(&self) -> &ControllerSettings;
+    /// One tick. `start` asks for the move to start with this tick, as the START button does.
+    fn tick(&mut self, raw: &RawMeasurement, start: bool) -> Result<TorqueCommand, SimError>;
+    /// The latched faults at the end, as text ("none" if none).
+    fn faults(&self) -> String;
+}
+
+impl<const K: usize> DriveLoop for Controller<K> {
+    fn settings(&self) -> &ControllerSettings {
+        Controller::settings(self)
+    }
+
+    fn tick(&mut self, raw: &RawMeasurement, start: bool) -> Result<TorqueCommand, SimError> {
+        if start && self.start_move().is_err() {
+            return Err(SimError::Option(
+                "the controller faulted while idle before the move",
+            ));
+        }
+        Ok(self.step(raw))
+    }
+
+    fn faults(&self) -> String {
+        Controller::faults(self).to_string()
+    }
+}
+
 /// Runs `controller` against `plant` from rest at the move's start.
 pub fn run<const N: usize, const K: usize>(
     plant: Plant<N>,
     mut controller: Controller<K>,
+    opts: &SimOptions,
+) -> Result<SimResult, SimError> {
+    let reference = controller.spline().clone();
+    run_with(plant, &mut controller, &reference, opts)
+}
+
+/// Runs `drive` against `plant` from rest at the start of `reference`, the move the drive
+/// runs when started; `reference` also gives the recorded reference angle.
+pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
+    plant: Plant<N>,
+    drive: &mut D,
+    reference: &Spline<K>,
     opts: &SimOptions,
 ) -> Result<SimResult, SimError> {
     if !(opts.duration_s.is_finite() && opts.duration_s > 0.0 && opts.duration_s <= 3600.0) {
@@ -215,23 +261,18 @@ pub fn run<const N: usize, const K: usize>(
     }
     // The tick as the decimal it was written as (1e-3, not f32's 1.0000000475e-3): the drive's
     // timer period is exact, and the sample times print cleanly.
-    let ts_f32 = controller.settings().ts_s;
+    let ts_f32 = drive.settings().ts_s;
     let ts = crate::io::f32_decimal(ts_f32);
-    let theta_home = controller.settings().theta_home_rad as f64;
+    let theta_home = drive.settings().theta_home_rad as f64;
     let mut sensors = Sensors::new(opts.sensors, theta_home);
-    let mut x = State::<N>::at_rest(controller.spline().start() as f64);
+    let mut x = State::<N>::at_rest(reference.start() as f64);
     let read = |x: &State<N>, sensors: &mut Sensors| {
         sensors.read(x.theta, plant.outputs(x).root_strain, false)
     };
 
     for _ in 0..opts.idle_ticks {
         let raw = read(&x, &mut sensors);
-        controller.step(&raw);
-    }
-    if controller.start_move().is_err() {
-        return Err(SimError::Option(
-            "the controller faulted while idle before the move",
-        ));
+        drive.tick(&raw, false)?;
     }
     let ticks = (opts.duration_s / ts).round() as usize;
     // k / rate is the nearest double to the decimal time when the rate is a whole number of
@@ -249,14 +290,14 @@ pub fn run<const N: usize, const K: usize>(
     for k in 0..=ticks {
         let t = time_of(k);
         let raw = read(&x, &mut sensors);
-        let cmd = controller.step(&raw);
+        let cmd = drive.tick(&raw, k == 0)?;
         let tau = plant.saturate(cmd.torque_nm as f64);
         let out = plant.outputs(&x);
         samples.push(Sample {
             t,
             theta: x.theta,
             omega: x.omega,
-            theta_ref: controller.spline().eval(t as f32).pos as f64,
+            theta_ref: reference.eval(t as f32).pos as f64,
             torque: tau,
             root_strain: out.root_strain,
             mid_strain: out.mid_strain,
@@ -291,7 +332,7 @@ pub fn run<const N: usize, const K: usize>(
     Ok(SimResult {
         samples,
         breakdown,
-        theta_final: controller.spline().end() as f64,
-        faults: controller.faults().to_string(),
+        theta_final: reference.end() as f64,
+        faults: drive.faults(),
     })
 }

@@ -1,0 +1,337 @@
+//! The processor-in-the-loop drive: the firmware's own `Drive::tick`, gain table and fault
+//! handling, with the STM32F4 peripherals replaced by frames from the host's simulated plant.
+//!
+//! Runs on QEMU's `netduinoplus2` (an emulated STM32F405). Each tick the host writes one
+//! [`SensorFrame`] to semihosting stdin; the drive hands its encoder count, strain code and
+//! fault line to the same generic drivers the board uses (the ADS1220 driver clocks the code
+//! out of a stand-in SPI bus with DRDY always ready), runs `Drive::tick`, and writes one
+//! [`CommandFrame`] back on stdout. The tick is bracketed by `insn_mark_start` /
+//! `insn_mark_end` for the instruction-count plugin, and its telemetry goes out through defmt,
+//! here a logger on semihosting stderr. No clocks are configured: QEMU has no RCC model, and
+//! lockstep with the host replaces the timer.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod pil {
+    use core::cell::{Cell, UnsafeCell};
+    use core::convert::Infallible;
+    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use embedded_hal::digital::{ErrorType as PinErrorType, InputPin, OutputPin};
+    use embedded_hal::pwm::{ErrorType as PwmErrorType, SetDutyCycle};
+    use embedded_hal::spi::{ErrorType as SpiErrorType, Operation, SpiDevice};
+    use firmware::ads1220::Ads1220;
+    use firmware::amplifier::{Amplifier, TorqueScale};
+    use firmware::drive::{Command, Drive, QuadratureCounter};
+    use firmware::moves::{build_controller_for, nearest, sequence, SLEW_FROM_RAD};
+    use firmware::pil::{
+        decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage,
+        SensorFrame, MAX_FRAME,
+    };
+    use semihosting::io::{Read, Write};
+    // The PAC's interrupt vector table, which cortex-m-rt's `device` feature expects.
+    use stm32f4xx_hal as _;
+
+    /// Instruction-count markers (../shared/tools/qemu-insn-count): different bodies, so the
+    /// linker cannot fold them into one address.
+    #[no_mangle]
+    #[inline(never)]
+    pub extern "C" fn insn_mark_start() {
+        core::hint::black_box(1u32);
+    }
+
+    /// See [`insn_mark_start`].
+    #[no_mangle]
+    #[inline(never)]
+    pub extern "C" fn insn_mark_end() {
+        core::hint::black_box(2u32);
+    }
+
+    /// The board's encoder counter, reading the frame.
+    struct Counter<'a>(&'a Cell<SensorFrame>);
+    impl QuadratureCounter for Counter<'_> {
+        fn count(&mut self) -> u32 {
+            self.0.get().encoder_raw
+        }
+    }
+
+    /// The converter's SPI bus: a read clocks out the frame's 24-bit code, MSB first.
+    struct Bus<'a>(&'a Cell<SensorFrame>);
+    impl SpiErrorType for Bus<'_> {
+        type Error = Infallible;
+    }
+    impl SpiDevice for Bus<'_> {
+        fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), Infallible> {
+            let [_, b2, b1, b0] = self.0.get().strain_code.to_be_bytes();
+            for op in ops {
+                if let Operation::Read(buf) = op {
+                    for (dst, src) in buf.iter_mut().zip([b2, b1, b0]) {
+                        *dst = src;
+                    }
+                }
+            }
+            Ok(())
+        }
+    }
+
+    /// DRDY: a new conversion every tick, as the host's sensor model gives one.
+    struct Ready;
+    impl PinErrorType for Ready {
+        type Error = Infallible;
+    }
+    impl InputPin for Ready {
+        fn is_high(&mut self) -> Result<bool, Infallible> {
+            Ok(false)
+        }
+        fn is_low(&mut self) -> Result<bool, Infallible> {
+            Ok(true)
+        }
+    }
+
+    /// The amplifier's /FAULT line from the frame.
+    struct FaultLine<'a>(&'a Cell<SensorFrame>);
+    impl PinErrorType for FaultLine<'_> {
+        type Error = Infallible;
+    }
+    impl InputPin for FaultLine<'_> {
+        fn is_high(&mut self) -> Result<bool, Infallible> {
+            Ok(!self.0.get().amp_fault)
+        }
+        fn is_low(&mut self) -> Result<bool, Infallible> {
+            Ok(self.0.get().amp_fault)
+        }
+    }
+
+    /// The amplifier's inputs go nowhere: the torque travels back in the command frame.
+    struct Sink;
+    impl PwmErrorType for Sink {
+        type Error = Infallible;
+    }
+    impl SetDutyCycle for Sink {
+        fn max_duty_cycle(&self) -> u16 {
+            8400 // TIM1 at 168 MHz and 20 kHz, as on the board
+        }
+        fn set_duty_cycle(&mut self, _: u16) -> Result<(), Infallible> {
+            Ok(())
+        }
+    }
+    impl PinErrorType for Sink {
+        type Error = Infallible;
+    }
+    impl OutputPin for Sink {
+        fn set_low(&mut self) -> Result<(), Infallible> {
+            Ok(())
+        }
+        fn set_high(&mut self) -> Result<(), Infallible> {
+            Ok(())
+        }
+    }
+
+    struct Link {
+        stdin: semihosting::io::Stdin,
+        stdout: semihosting::io::Stdout,
+        reader: FrameReader,
+    }
+
+    impl Link {
+        fn receive(&mut self) -> Result<HostMessage, DriveError> {
+            let mut byte = [0u8; 1];
+            loop {
+                let n = self.stdin.read(&mut byte).map_err(|_| DriveError::Io)?;
+                if n == 0 {
+                    return Err(DriveError::EndOfInput);
+                }
+                if let Some(frame) = self.reader.push(byte[0]) {
+                    let frame = frame.map_err(DriveError::Frame)?;
+                    return decode(frame).map_err(DriveError::Frame);
+                }
+            }
+        }
+
+        fn send(&mut self, msg: &DriveMessage) -> Result<(), DriveError> {
+            let mut buf = [0u8; MAX_FRAME + 1];
+            let frame = encode(msg, &mut buf).map_err(DriveError::Frame)?;
+            self.stdout.write_all(frame).map_err(|_| DriveError::Io)
+        }
+    }
+
+    fn run(link: &mut Link) -> Result<(), DriveError> {
+        let (kind, payload_kg) = match link.receive()? {
+            HostMessage::Setup {
+                controller,
+                payload_kg,
+            } => (controller, payload_kg),
+            _ => return Err(DriveError::Unexpected),
+        };
+        let controller = build_controller_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
+        let moves = sequence().map_err(|_| DriveError::Config)?;
+        let frame = Cell::new(SensorFrame::default());
+        let amp = match Amplifier::new(
+            Sink,
+            Sink,
+            Sink,
+            TorqueScale {
+                full_scale_nm: 10.0,
+            },
+        ) {
+            Ok(a) => a,
+            Err(_) => return Err(DriveError::Config),
+        };
+        let mut drive = Drive::new(
+            controller,
+            Counter(&frame),
+            Ads1220::new(Bus(&frame), Ready),
+            amp,
+            FaultLine(&frame),
+        );
+        link.send(&DriveMessage::Ready)?;
+        let mut expected = 0u32;
+        let mut theta = SLEW_FROM_RAD;
+        loop {
+            let sensors = match link.receive()? {
+                HostMessage::Sensors(s) => s,
+                HostMessage::Stop => return Ok(()),
+                HostMessage::Setup { .. } => return Err(DriveError::Unexpected),
+            };
+            if sensors.seq != expected {
+                return Err(DriveError::Sequence {
+                    expected,
+                    got: sensors.seq,
+                });
+            }
+            frame.set(sensors);
+            if sensors.start {
+                if let Some(m) = nearest(&moves, theta) {
+                    // Refused (faulted, busy): the command frame's mode and faults say so.
+                    let _ = drive.command(Command::Move(m.clone()));
+                }
+            }
+            insn_mark_start();
+            let t = drive.tick();
+            insn_mark_end();
+            theta = t.theta_rad;
+            t.log();
+            link.send(&DriveMessage::Command(CommandFrame {
+                seq: sensors.seq,
+                torque_nm: t.torque_nm,
+                theta_rad: t.theta_rad,
+                strain: t.strain,
+                mode: t.mode as u8,
+                faults: t.faults.0,
+            }))?;
+            expected = expected.wrapping_add(1);
+        }
+    }
+
+    #[entry]
+    fn main() -> ! {
+        let (Ok(stdin), Ok(stdout)) = (semihosting::io::stdin(), semihosting::io::stdout()) else {
+            semihosting::process::exit(4)
+        };
+        let mut link = Link {
+            stdin,
+            stdout,
+            reader: FrameReader::new(),
+        };
+        match run(&mut link) {
+            Ok(()) => semihosting::process::exit(0),
+            Err(e) => {
+                defmt::error!("pil: {}", e);
+                // Best effort: the host may already be gone.
+                let _ = link.send(&DriveMessage::Error(e));
+                semihosting::process::exit(3)
+            }
+        }
+    }
+
+    /// defmt frames go to semihosting stderr, one write per log call.
+    #[defmt::global_logger]
+    struct StderrLogger;
+
+    struct LogState {
+        taken: bool,
+        encoder: defmt::Encoder,
+        buf: [u8; 256],
+        len: usize,
+    }
+
+    struct LogCell(UnsafeCell<LogState>);
+    // SAFETY: the PIL drive is single-threaded with no interrupts; `taken` rejects re-entry.
+    unsafe impl Sync for LogCell {}
+
+    static LOG: LogCell = LogCell(UnsafeCell::new(LogState {
+        taken: false,
+        encoder: defmt::Encoder::new(),
+        buf: [0; 256],
+        len: 0,
+    }));
+
+    impl LogState {
+        /// Runs one encoder step with the frame buffer as its output.
+        fn encode(&mut self, step: impl FnOnce(&mut defmt::Encoder, &mut dyn FnMut(&[u8]))) {
+            let LogState {
+                encoder, buf, len, ..
+            } = self;
+            let mut sink = |bytes: &[u8]| {
+                for &b in bytes {
+                    if *len < buf.len() {
+                        buf[*len] = b;
+                        *len += 1;
+                    }
+                }
+            };
+            step(encoder, &mut sink);
+        }
+    }
+
+    // SAFETY: defmt calls acquire, then write and flush, then release, from one context, and
+    // the PIL drive has no interrupts; a nested acquire (a log inside a log) is dropped.
+    unsafe impl defmt::Logger for StderrLogger {
+        fn acquire() {
+            let state = unsafe { &mut *LOG.0.get() };
+            if state.taken {
+                return;
+            }
+            state.taken = true;
+            state.len = 0;
+            state.encode(|e, sink| e.start_frame(sink));
+        }
+
+        unsafe fn flush() {}
+
+        unsafe fn release() {
+            let state = unsafe { &mut *LOG.0.get() };
+            state.encode(|e, sink| e.end_frame(sink));
+            if let Ok(mut e) = semihosting::io::stderr() {
+                let _ = e.write_all(&state.buf[..state.len]);
+            }
+            state.taken = false;
+        }
+
+        unsafe fn write(bytes: &[u8]) {
+            let state = unsafe { &mut *LOG.0.get() };
+            state.encode(|e, sink| e.write(bytes, sink));
+        }
+    }
+
+    #[panic_handler]
+    fn panic(info: &core::panic::PanicInfo) -> ! {
+        match info.location() {
+            Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
+            None => defmt::error!("panic"),
+        }
+        semihosting::process::exit(101)
+    }
+
+    #[exception]
+    unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+        defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
+        semihosting::process::exit(102)
+    }
+}
+
+/// On the host this binary is only type-checked; build it with `cargo fw`.
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!("the PIL drive runs under QEMU: build it with `cargo fw`, run it with `beam pil`");
+    std::process::exit(2);
+}

@@ -1,0 +1,446 @@
+//! The processor-in-the-loop wire format: the frames the host's plant and the emulated drive
+//! exchange once per tick over semihosting stdin/stdout.
+//!
+//! A frame is a postcard-serialised message inside a checked envelope, COBS-encoded and
+//! ended by a zero byte:
+//!
+//! ```text
+//! COBS( VERSION:u8 | LEN:u8 | payload: LEN bytes (postcard) | CRC-32/ISO-HDLC of the above: u32 LE ) 0x00
+//! ```
+//!
+//! Every way a frame can be wrong has its own [`FrameError`]: too long, bad COBS, too short
+//! for its envelope, another protocol version, a length that disagrees with the bytes, a CRC
+//! mismatch, a payload that does not deserialise, bytes left over. Sequence numbers (the tick)
+//! are checked by both ends on top of this. The same code runs in the PIL firmware and in
+//! `beam pil`, so both sides detect the same faults in the same way.
+
+pub use crate::moves::ControllerKind;
+use serde::{Deserialize, Serialize};
+
+/// Protocol version; bumped whenever a message changes.
+pub const VERSION: u8 = 1;
+/// Largest payload, bytes.
+pub const MAX_PAYLOAD: usize = 48;
+/// Largest frame before COBS: version, length, payload, CRC.
+pub const MAX_RAW: usize = 2 + MAX_PAYLOAD + 4;
+/// Largest encoded frame, excluding the zero delimiter.
+pub const MAX_FRAME: usize = cobs::max_encoding_length(MAX_RAW);
+
+const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// One tick's sensor readings, as the board's drivers would have produced them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SensorFrame {
+    /// Tick number, from 0, one more each frame.
+    pub seq: u32,
+    /// The encoder counter (only its low 16 bits on this board).
+    pub encoder_raw: u32,
+    /// The bridge converter's 24-bit code.
+    pub strain_code: i32,
+    /// The amplifier's fault line is asserted.
+    pub amp_fault: bool,
+    /// START is pressed this tick (runs the move beginning nearest the hub).
+    pub start: bool,
+}
+
+/// What the drive did with one [`SensorFrame`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CommandFrame {
+    /// The sensor frame's `seq`.
+    pub seq: u32,
+    /// Torque commanded, N m.
+    pub torque_nm: f32,
+    /// Hub angle the controller measured, rad.
+    pub theta_rad: f32,
+    /// Root strain the controller measured (offset removed).
+    pub strain: f32,
+    /// Controller mode: 0 idle, 1 slewing, 2 holding, 3 fault.
+    pub mode: u8,
+    /// Latched fault bits (`model_core::FaultFlags`).
+    pub faults: u8,
+}
+
+/// Host to drive.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HostMessage {
+    /// Build the controller: which law, for which payload. First message of a run.
+    Setup {
+        /// The law.
+        controller: ControllerKind,
+        /// Payload, kg (schedules the gains and sets the model's tip mass).
+        payload_kg: f32,
+    },
+    /// One tick.
+    Sensors(SensorFrame),
+    /// End of the run: the drive exits with status 0.
+    Stop,
+}
+
+/// Drive to host.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum DriveMessage {
+    /// The controller is built and idle.
+    Ready,
+    /// One tick's command.
+    Command(CommandFrame),
+    /// The drive could not go on; it exits after sending this.
+    Error(DriveError),
+}
+
+/// Why the PIL drive stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum DriveError {
+    /// A frame from the host was malformed.
+    Frame(FrameError),
+    /// A sensor frame arrived out of order.
+    Sequence {
+        /// The tick expected.
+        expected: u32,
+        /// The tick received.
+        got: u32,
+    },
+    /// A message came that is not valid at this point (sensors before setup, setup twice).
+    Unexpected,
+    /// The compiled-in configuration failed to build for the requested setup.
+    Config,
+    /// Stdin ended in the middle of a run.
+    EndOfInput,
+    /// Semihosting I/O failed.
+    Io,
+}
+
+/// A malformed frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub enum FrameError {
+    /// More bytes than any valid frame before the delimiter.
+    TooLong,
+    /// The COBS encoding is broken.
+    Cobs,
+    /// Fewer bytes than the envelope needs.
+    Short {
+        /// Bytes after COBS decoding.
+        len: u16,
+    },
+    /// Another protocol version.
+    Version {
+        /// The version in the frame.
+        got: u8,
+    },
+    /// The length byte disagrees with the frame.
+    Length {
+        /// The length byte.
+        declared: u8,
+        /// Payload bytes present.
+        actual: u16,
+    },
+    /// The CRC does not match.
+    Crc {
+        /// CRC in the frame.
+        got: u32,
+        /// CRC of the bytes.
+        computed: u32,
+    },
+    /// The payload does not deserialise as the expected message.
+    Payload,
+    /// The message left payload bytes unread.
+    TrailingBytes,
+    /// The message does not fit a frame (a bug on the sending side).
+    Encode,
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FrameError::TooLong => write!(f, "frame longer than {MAX_FRAME} bytes"),
+            FrameError::Cobs => write!(f, "broken COBS encoding"),
+            FrameError::Short { len } => write!(f, "short frame ({len} bytes)"),
+            FrameError::Version { got } => {
+                write!(f, "protocol version {got}, expected {VERSION}")
+            }
+            FrameError::Length { declared, actual } => {
+                write!(f, "length byte says {declared}, frame has {actual}")
+            }
+            FrameError::Crc { got, computed } => {
+                write!(f, "CRC {got:#010x}, computed {computed:#010x}")
+            }
+            FrameError::Payload => write!(f, "payload does not decode"),
+            FrameError::TrailingBytes => write!(f, "payload has trailing bytes"),
+            FrameError::Encode => write!(f, "message too large for a frame"),
+        }
+    }
+}
+
+impl core::fmt::Display for DriveError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            DriveError::Frame(e) => write!(f, "bad frame from the host: {e}"),
+            DriveError::Sequence { expected, got } => {
+                write!(f, "sensor frame {got} out of order, expected {expected}")
+            }
+            DriveError::Unexpected => write!(f, "unexpected message"),
+            DriveError::Config => write!(f, "the controller could not be built"),
+            DriveError::EndOfInput => write!(f, "input ended mid-run"),
+            DriveError::Io => write!(f, "semihosting I/O error"),
+        }
+    }
+}
+
+/// Collects bytes into frames: everything up to a zero delimiter.
+#[derive(Debug)]
+pub struct FrameReader {
+    buf: [u8; MAX_FRAME],
+    len: usize,
+    overflow: bool,
+}
+
+impl Default for FrameReader {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FrameReader {
+    /// An empty reader.
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; MAX_FRAME],
+            len: 0,
+            overflow: false,
+        }
+    }
+
+    /// Takes one byte. At a delimiter, returns the frame's bytes (ready for [`decode`]) or
+    /// [`FrameError::TooLong`] if more bytes came than a frame can hold; the reader is then
+    /// empty again, so one bad frame does not swallow the next.
+    pub fn push(&mut self, byte: u8) -> Option<Result<&mut [u8], FrameError>> {
+        if byte != 0 {
+            if self.len < self.buf.len() {
+                self.buf[self.len] = byte;
+                self.len += 1;
+            } else {
+                self.overflow = true;
+            }
+            return None;
+        }
+        let (len, overflow) = (self.len, self.overflow);
+        self.len = 0;
+        self.overflow = false;
+        Some(if overflow {
+            Err(FrameError::TooLong)
+        } else {
+            Ok(&mut self.buf[..len])
+        })
+    }
+
+    /// True when a frame has started but not ended (input that stops here was cut short).
+    pub fn partial(&self) -> bool {
+        self.len > 0 || self.overflow
+    }
+}
+
+/// Encodes `msg` into `out` and returns the frame including its zero delimiter.
+pub fn encode<'a, T: Serialize>(
+    msg: &T,
+    out: &'a mut [u8; MAX_FRAME + 1],
+) -> Result<&'a [u8], FrameError> {
+    let mut raw = [0u8; MAX_RAW];
+    let n = postcard::to_slice(msg, &mut raw[2..2 + MAX_PAYLOAD])
+        .map_err(|_| FrameError::Encode)?
+        .len();
+    raw[0] = VERSION;
+    raw[1] = n as u8;
+    let crc = CRC.checksum(&raw[..2 + n]);
+    raw[2 + n..6 + n].copy_from_slice(&crc.to_le_bytes());
+    let len =
+        cobs::try_encode(&raw[..6 + n], &mut out[..MAX_FRAME]).map_err(|_| FrameError::Encode)?;
+    out[len] = 0;
+    Ok(&out[..=len])
+}
+
+/// Decodes one frame (the bytes before its zero delimiter, decoded in place) as a `T`.
+pub fn decode<'de, T: Deserialize<'de>>(frame: &'de mut [u8]) -> Result<T, FrameError> {
+    if frame.len() > MAX_FRAME {
+        return Err(FrameError::TooLong);
+    }
+    let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
+    let raw = &frame[..n];
+    if n < 6 {
+        return Err(FrameError::Short { len: n as u16 });
+    }
+    if raw[0] != VERSION {
+        return Err(FrameError::Version { got: raw[0] });
+    }
+    let actual = n - 6;
+    if raw[1] as usize != actual {
+        return Err(FrameError::Length {
+            declared: raw[1],
+            actual: actual as u16,
+        });
+    }
+    let (body, crc) = raw.split_at(n - 4);
+    let got = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+    let computed = CRC.checksum(body);
+    if got != computed {
+        return Err(FrameError::Crc { got, computed });
+    }
+    let (msg, rest) = postcard::take_from_bytes(&body[2..]).map_err(|_| FrameError::Payload)?;
+    if !rest.is_empty() {
+        return Err(FrameError::TrailingBytes);
+    }
+    Ok(msg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn roundtrip(m: HostMessage) -> Result<HostMessage, FrameError> {
+        let mut buf = [0u8; MAX_FRAME + 1];
+        let frame = encode(&m, &mut buf)?.to_vec();
+        assert_eq!(frame.last(), Some(&0));
+        assert!(!frame[..frame.len() - 1].contains(&0));
+        let mut body = frame[..frame.len() - 1].to_vec();
+        decode(&mut body)
+    }
+
+    fn sensors() -> HostMessage {
+        HostMessage::Sensors(SensorFrame {
+            seq: 123_456,
+            encoder_raw: 65_535,
+            strain_code: -8_388_608,
+            amp_fault: true,
+            start: false,
+        })
+    }
+
+    #[test]
+    fn every_message_survives_the_round_trip() {
+        for m in [
+            sensors(),
+            HostMessage::Stop,
+            HostMessage::Setup {
+                controller: ControllerKind::SmcStrain,
+                payload_kg: 0.025,
+            },
+        ] {
+            assert_eq!(roundtrip(m), Ok(m));
+        }
+        let mut buf = [0u8; MAX_FRAME + 1];
+        let c = DriveMessage::Command(CommandFrame {
+            seq: u32::MAX,
+            torque_nm: -f32::MAX,
+            theta_rad: f32::NAN,
+            strain: 1e-6,
+            mode: 3,
+            faults: 0x7F,
+        });
+        let frame = encode(&c, &mut buf).unwrap().to_vec();
+        let mut body = frame[..frame.len() - 1].to_vec();
+        let back: DriveMessage = decode(&mut body).unwrap();
+        // NaN != NaN, so compare the bits.
+        match back {
+            DriveMessage::Command(b) => assert_eq!(b.theta_rad.to_bits(), f32::NAN.to_bits()),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    fn encoded(m: HostMessage) -> Vec<u8> {
+        let mut buf = [0u8; MAX_FRAME + 1];
+        let f = encode(&m, &mut buf).unwrap();
+        f[..f.len() - 1].to_vec()
+    }
+
+    /// COBS-encodes raw envelope bytes as a sender would, without checking them.
+    fn wrap(raw: &[u8]) -> Vec<u8> {
+        let mut out = vec![0u8; cobs::max_encoding_length(raw.len())];
+        let n = cobs::try_encode(raw, &mut out).unwrap();
+        out.truncate(n);
+        out
+    }
+
+    fn raw_of(m: HostMessage) -> Vec<u8> {
+        let mut f = encoded(m);
+        let n = cobs::decode_in_place(&mut f).unwrap();
+        f.truncate(n);
+        f
+    }
+
+    #[test]
+    fn the_reader_splits_frames_and_recovers_after_an_overlong_one() {
+        let mut bytes = encoded(sensors());
+        bytes.push(0);
+        bytes.extend(vec![7u8; MAX_FRAME + 5]);
+        bytes.push(0);
+        bytes.extend(encoded(HostMessage::Stop));
+        bytes.push(0);
+        bytes.extend([1, 2]);
+        let mut r = FrameReader::new();
+        let mut got = vec![];
+        for b in bytes {
+            if let Some(frame) = r.push(b) {
+                got.push(frame.and_then(decode::<HostMessage>));
+            }
+        }
+        assert_eq!(
+            got,
+            [
+                Ok(sensors()),
+                Err(FrameError::TooLong),
+                Ok(HostMessage::Stop)
+            ]
+        );
+        assert!(r.partial());
+    }
+
+    #[test]
+    fn each_corruption_is_named() {
+        let decode_host = |mut b: Vec<u8>| decode::<HostMessage>(&mut b);
+        // Every single-bit flip of a valid frame is caught (by COBS, the envelope or the CRC).
+        let good = encoded(sensors());
+        for i in 0..good.len() * 8 {
+            let mut bad = good.clone();
+            bad[i / 8] ^= 1 << (i % 8);
+            if bad[i / 8] == 0 {
+                continue; // a zero would end the frame early: the short case below
+            }
+            assert!(decode_host(bad).is_err(), "bit {i} flipped went unnoticed");
+        }
+        assert_eq!(
+            decode_host(vec![1; MAX_FRAME + 1]),
+            Err(FrameError::TooLong)
+        );
+        assert_eq!(
+            decode_host(wrap(&[1, 0, 0])),
+            Err(FrameError::Short { len: 3 })
+        );
+        // A truncated frame (a delimiter lost in the middle) fails its length or CRC.
+        let mut raw = raw_of(sensors());
+        raw.truncate(raw.len() - 2);
+        assert!(matches!(
+            decode_host(wrap(&raw)),
+            Err(FrameError::Length { .. })
+        ));
+        let mut raw = raw_of(sensors());
+        raw[0] = 9;
+        assert_eq!(decode_host(wrap(&raw)), Err(FrameError::Version { got: 9 }));
+        let mut raw = raw_of(sensors());
+        let last = raw.len() - 1;
+        raw[last] ^= 0x80;
+        assert!(matches!(
+            decode_host(wrap(&raw)),
+            Err(FrameError::Crc { .. })
+        ));
+        // A well-enveloped payload that is not a host message.
+        let mut raw = vec![VERSION, 1, 0x07];
+        let crc = CRC.checksum(&raw);
+        raw.extend(crc.to_le_bytes());
+        assert_eq!(decode_host(wrap(&raw)), Err(FrameError::Payload));
+        // Stop with a byte after it.
+        let mut raw = vec![VERSION, 2, 2, 0x55];
+        let crc = CRC.checksum(&raw);
+        raw.extend(crc.to_le_bytes());
+        assert_eq!(decode_host(wrap(&raw)), Err(FrameError::TrailingBytes));
+    }
+}

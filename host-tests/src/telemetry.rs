@@ -1,0 +1,242 @@
+//! The drive's defmt telemetry, decoded on the host into the CSV `beam calibrate` reads.
+//!
+//! Both firmware binaries log every tick as one defmt message in a fixed format,
+//! `tlm {tick} {encoder_raw} {strain_code} {torque_nm} {theta_rad} {theta_ref_rad} {strain}
+//! {mode} {faults}` (`firmware::drive::Telemetry::log`). This module decodes a raw defmt
+//! stream with the `defmt-decoder` crate and the firmware ELF's format table (the bytes
+//! `beam pil` collects from the emulated drive, or a raw RTT capture from the board), and also
+//! accepts text that has already been decoded (`probe-rs run` or `defmt-print` output, one
+//! message per line). Floats are printed by the decoder in shortest round-trip form, so the
+//! values parsed back are the drive's f32s exactly.
+
+use std::fmt::Write as _;
+
+/// One tick as the drive logged it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Row {
+    /// Tick number since power-on.
+    pub tick: u32,
+    /// Raw encoder counter.
+    pub encoder_raw: u32,
+    /// Strain converter code.
+    pub strain_code: i32,
+    /// Torque commanded, N m.
+    pub torque_nm: f32,
+    /// Hub angle measured, rad.
+    pub theta_rad: f32,
+    /// Reference angle, rad.
+    pub theta_ref_rad: f32,
+    /// Root strain measured, offset removed.
+    pub strain: f32,
+    /// Mode: 0 idle, 1 slewing, 2 holding, 3 fault.
+    pub mode: u8,
+    /// Latched fault bits.
+    pub faults: u8,
+}
+
+/// Slewing, in [`Row::mode`].
+pub const MODE_SLEWING: u8 = 1;
+
+/// Parses one decoded message. `None` if it is not a telemetry message (other log lines are
+/// skipped); an error if it is one but malformed.
+pub fn parse_message(text: &str) -> Option<Result<Row, String>> {
+    let rest = text
+        .split_whitespace()
+        .skip_while(|w| *w != "tlm")
+        .skip(1)
+        .collect::<Vec<_>>();
+    if !text.split_whitespace().any(|w| w == "tlm") {
+        return None;
+    }
+    Some(parse_fields(&rest))
+}
+
+fn parse_fields(f: &[&str]) -> Result<Row, String> {
+    if f.len() != 9 {
+        return Err(format!("{} fields after `tlm`, expected 9", f.len()));
+    }
+    fn num<T: std::str::FromStr>(f: &[&str], i: usize, name: &str) -> Result<T, String> {
+        f[i].parse()
+            .map_err(|_| format!("field `{name}`: `{}` is not a number", f[i]))
+    }
+    Ok(Row {
+        tick: num(f, 0, "tick")?,
+        encoder_raw: num(f, 1, "encoder_raw")?,
+        strain_code: num(f, 2, "strain_code")?,
+        torque_nm: num(f, 3, "torque_nm")?,
+        theta_rad: num(f, 4, "theta_rad")?,
+        theta_ref_rad: num(f, 5, "theta_ref_rad")?,
+        strain: num(f, 6, "strain")?,
+        mode: num(f, 7, "mode")?,
+        faults: num(f, 8, "faults")?,
+    })
+}
+
+/// What decoding a stream found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Decoded {
+    /// Telemetry rows in stream order.
+    pub rows: Vec<Row>,
+    /// Other messages (errors, start-up lines), as text.
+    pub other: Vec<String>,
+    /// Frames the decoder could not read (skipped).
+    pub malformed: usize,
+}
+
+/// Decodes a raw defmt byte stream with the format table of `elf`.
+pub fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Decoded, String> {
+    let table = defmt_decoder::Table::parse(elf)
+        .map_err(|e| format!("reading the firmware's defmt table: {e}"))?
+        .ok_or("the firmware has no defmt table (was it built with defmt?)")?;
+    let mut decoder = table.new_stream_decoder();
+    decoder.received(stream);
+    let mut out = Decoded::default();
+    loop {
+        match decoder.decode() {
+            Ok(frame) => {
+                let text = frame.display_message().to_string();
+                match parse_message(&text) {
+                    Some(Ok(row)) => out.rows.push(row),
+                    Some(Err(e)) => return Err(format!("telemetry message `{text}`: {e}")),
+                    None => out.other.push(text),
+                }
+            }
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                out.malformed += 1;
+                if !table.encoding().can_recover() {
+                    break;
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Parses already-decoded text, one message per line.
+pub fn parse_text(text: &str) -> Result<Decoded, String> {
+    let mut out = Decoded::default();
+    for (n, line) in text.lines().enumerate() {
+        match parse_message(line) {
+            Some(Ok(row)) => out.rows.push(row),
+            Some(Err(e)) => return Err(format!("line {}: {e}", n + 1)),
+            None if line.trim().is_empty() => {}
+            None => out.other.push(line.to_string()),
+        }
+    }
+    Ok(out)
+}
+
+/// The rows of the first move: from the first slewing tick to the end of the log or the
+/// next idle tick. `None` if no move started.
+pub fn first_move(rows: &[Row]) -> Option<&[Row]> {
+    let start = rows.iter().position(|r| r.mode == MODE_SLEWING)?;
+    let len = rows[start..]
+        .iter()
+        .position(|r| r.mode == 0)
+        .unwrap_or(rows.len() - start);
+    Some(&rows[start..start + len])
+}
+
+/// Writes `rows` as the CSV `beam calibrate` reads, with `t_s` counted from the first row's
+/// tick at `ts_s` per tick. Ticks must increase by one: a gap (dropped samples) is an error,
+/// since calibration needs uniform sampling.
+pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<(), String> {
+    let first = rows.first().ok_or("no telemetry rows")?.tick;
+    // k / rate is the nearest double to the decimal time for a whole-hertz rate.
+    let rate = (1.0 / ts_s).round();
+    let time_of = |k: usize| {
+        if (rate * ts_s - 1.0).abs() < 1e-12 {
+            k as f64 / rate
+        } else {
+            k as f64 * ts_s
+        }
+    };
+    let mut s = String::from(
+        "t_s,tick,encoder_raw,strain_code,torque_nm,theta_rad,theta_ref_rad,root_strain,mode,faults\n",
+    );
+    for (i, r) in rows.iter().enumerate() {
+        let expected = first.wrapping_add(i as u32);
+        if r.tick != expected {
+            return Err(format!(
+                "tick {} follows tick {}: samples were dropped",
+                r.tick,
+                expected.wrapping_sub(1)
+            ));
+        }
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{}",
+            time_of(i),
+            r.tick,
+            r.encoder_raw,
+            r.strain_code,
+            r.torque_nm,
+            r.theta_rad,
+            r.theta_ref_rad,
+            r.strain,
+            r.mode,
+            r.faults
+        );
+    }
+    w.write_all(s.as_bytes()).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_parse_exactly_and_other_lines_are_kept_apart() {
+        let text = "INFO drive up\n\
+                    [INFO ] tlm 7 65535 -1234 1.25 -1.5707964 -1.5707964 1e-6 1 0 (firmware src/drive.rs:60)\n\
+                    \n";
+        let d = parse_text(text).unwrap();
+        assert_eq!(d.other, ["INFO drive up"]);
+        assert_eq!(
+            d.rows,
+            [Row {
+                tick: 7,
+                encoder_raw: 65535,
+                strain_code: -1234,
+                torque_nm: 1.25,
+                theta_rad: -std::f32::consts::FRAC_PI_2,
+                theta_ref_rad: -std::f32::consts::FRAC_PI_2,
+                strain: 1e-6,
+                mode: 1,
+                faults: 0,
+            }]
+            .to_vec()
+        );
+    }
+
+    #[test]
+    fn malformed_telemetry_is_an_error_naming_the_field() {
+        let e = parse_text("tlm 1 2 3 x 5 6 7 8 9").unwrap_err();
+        assert!(e.contains("line 1") && e.contains("torque_nm"), "{e}");
+        assert!(parse_text("tlm 1 2 3").unwrap_err().contains("3 fields"));
+    }
+
+    #[test]
+    fn a_gap_in_the_ticks_is_refused() {
+        let row = |tick| Row {
+            tick,
+            encoder_raw: 0,
+            strain_code: 0,
+            torque_nm: 0.0,
+            theta_rad: 0.0,
+            theta_ref_rad: 0.0,
+            strain: 0.0,
+            mode: 1,
+            faults: 0,
+        };
+        let mut out = vec![];
+        assert!(write_csv(&[row(5), row(6), row(8)], 1e-3, &mut out)
+            .unwrap_err()
+            .contains("tick 8 follows tick 7"));
+        let mut out = vec![];
+        write_csv(&[row(5), row(6)], 1e-3, &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.lines().nth(2).unwrap().starts_with("0.001,6,"));
+    }
+}

@@ -1,0 +1,187 @@
+//! Processor-in-the-loop: the firmware binary, on QEMU's emulated STM32F405, closes the loop
+//! with the simulated beam, and must behave exactly as the host's build of the same code.
+//!
+//! Skipped, loudly, only when `qemu-system-arm` is absent; CI installs it. The PIL firmware is
+//! built first (`cargo build -p firmware --bin pil --release --target thumbv7em-none-eabihf`,
+//! a no-op when it is up to date) so the test never runs a stale binary.
+
+use firmware::moves::{build_controller_for, ControllerKind};
+use firmware::pil::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
+use host_tests::calibrate::read_log;
+use host_tests::metrics::metrics;
+use host_tests::pil::{build_plugin, paths, run_pil, PilConfig, PilDrive};
+use host_tests::plant::Plant;
+use host_tests::sim::{run, SimOptions};
+use host_tests::telemetry::{first_move, write_csv};
+use model_core::{Beam, BeamParams, ModalModel, Mode};
+use std::process::Command;
+use std::sync::OnceLock;
+
+fn qemu_present() -> bool {
+    let found = Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !found {
+        eprintln!(
+            "\n\n!!!!!!!! SKIPPED: qemu-system-arm is not installed; the processor-in-the-loop \
+             tests did not run (apt-get install qemu-system-arm) !!!!!!!!\n"
+        );
+    }
+    found
+}
+
+/// Builds the PIL firmware once per test binary.
+fn pil_elf() -> std::path::PathBuf {
+    static BUILT: OnceLock<()> = OnceLock::new();
+    BUILT.get_or_init(|| {
+        let status = Command::new(env!("CARGO"))
+            .current_dir(paths::workspace())
+            .args([
+                "build",
+                "-p",
+                "firmware",
+                "--bin",
+                "pil",
+                "--release",
+                "--target",
+                "thumbv7em-none-eabihf",
+            ])
+            .status()
+            .expect("running cargo");
+        assert!(status.success(), "building the PIL firmware failed");
+    });
+    paths::pil_elf()
+}
+
+fn config(controller: ControllerKind, plugin: bool) -> PilConfig {
+    PilConfig {
+        elf: pil_elf(),
+        qemu: "qemu-system-arm".into(),
+        plugin: plugin.then(|| build_plugin(&paths::insn_tool(), &paths::plugin_dir()).unwrap()),
+        timeout_s: 300,
+        controller,
+        payload_kg: 0.0,
+    }
+}
+
+fn model() -> ModalModel<3> {
+    ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
+}
+
+#[test]
+fn the_firmware_closes_the_loop_exactly_as_the_host_build_does() {
+    if !qemu_present() {
+        return;
+    }
+    let opts = SimOptions::default();
+    let cfg = config(ControllerKind::Smc, true);
+    let pil = run_pil(Plant::new(model()), &cfg, &opts).unwrap();
+    let host = run(
+        Plant::new(model()),
+        build_controller_for(ControllerKind::Smc, 0.0).unwrap(),
+        &opts,
+    )
+    .unwrap();
+
+    // The same torques, bit for bit, for the same sensor stream (replayed after the run).
+    assert!(
+        pil.identical,
+        "max diff {} N m, {} ulps",
+        pil.max_torque_diff, pil.max_ulps
+    );
+    assert_eq!(pil.max_ulps, 0);
+    // ... hence the same closed-loop trajectory and metrics as the host-only run.
+    assert_eq!(pil.run.samples, host.samples);
+    let (mp, mh) = (metrics(&pil.run), metrics(&host));
+    assert_eq!(mp, mh);
+    // One tick per frame: 50 idle ticks and 2 s at 1 kHz, both ends inclusive.
+    assert_eq!(pil.ticks as usize, opts.idle_ticks as usize + 2001);
+
+    // The thresholds the host closed-loop test holds the SMC to.
+    assert!(pil.run.breakdown.is_none());
+    assert_eq!(pil.run.faults, "none");
+    assert!(mp.err_deg_t2_0.unwrap() < 0.5, "{mp:?}");
+    assert!(pil.run.samples.last().unwrap().omega.abs() < 0.02);
+    assert!(mp.settle_s.is_some());
+    assert!(mp.peak_torque_nm.unwrap() <= 10.0);
+
+    // Instruction counts, one per tick, from the plugin.
+    let insns = pil.insns.unwrap();
+    assert_eq!(insns.ticks, pil.ticks as usize);
+    assert!(0 < insns.min && insns.min as f64 <= insns.mean && insns.mean <= insns.max as f64);
+
+    // The drive's defmt telemetry: one row per tick, agreeing with the command frames, and
+    // the first move's rows make a log that calibration accepts.
+    let rows = &pil.telemetry.rows;
+    assert_eq!(rows.len(), pil.ticks as usize);
+    assert_eq!(pil.telemetry.malformed, 0);
+    let moved = first_move(rows).unwrap();
+    assert_eq!(moved.len(), 2001);
+    for (row, sample) in moved.iter().zip(&pil.run.samples) {
+        assert_eq!(row.torque_nm as f64, sample.torque);
+        assert_eq!(row.theta_rad as f64, sample.theta_meas);
+    }
+    let mut csv = vec![];
+    write_csv(moved, 1e-3, &mut csv).unwrap();
+    let log = read_log(std::str::from_utf8(&csv).unwrap(), "pil.csv").unwrap();
+    assert_eq!(log.t.len(), 2001);
+    assert_eq!(log.t[572], 0.572);
+}
+
+#[test]
+fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
+    if !qemu_present() {
+        return;
+    }
+    let settings = *build_controller_for(ControllerKind::Smc, 0.0)
+        .unwrap()
+        .settings();
+    let frame = |seq| {
+        HostMessage::Sensors(SensorFrame {
+            seq,
+            ..Default::default()
+        })
+    };
+
+    // Tick 0, then tick 2: the drive answers the first and refuses the second.
+    let mut drive = PilDrive::spawn(&config(ControllerKind::Pd, false), settings).unwrap();
+    drive.send(&frame(0)).unwrap();
+    match drive.receive().unwrap() {
+        DriveMessage::Command(c) => assert_eq!((c.seq, c.mode), (0, Mode::Idle as u8)),
+        other => panic!("{other:?}"),
+    }
+    drive.send(&frame(2)).unwrap();
+    assert_eq!(
+        drive.receive().unwrap(),
+        DriveMessage::Error(DriveError::Sequence {
+            expected: 1,
+            got: 2
+        })
+    );
+    assert_eq!(drive.wait().0.code(), Some(3));
+
+    // One bit flipped in a frame's CRC.
+    let mut drive = PilDrive::spawn(&config(ControllerKind::Pd, false), settings).unwrap();
+    let mut buf = [0u8; firmware::pil::MAX_FRAME + 1];
+    let mut bytes = encode(&frame(0), &mut buf).unwrap().to_vec();
+    let n = bytes.len();
+    bytes[n - 2] ^= if bytes[n - 2] == 0x01 { 0x02 } else { 0x01 };
+    drive.send_raw(&bytes).unwrap();
+    match drive.receive().unwrap() {
+        DriveMessage::Error(DriveError::Frame(e)) => {
+            assert!(
+                matches!(e, FrameError::Crc { .. } | FrameError::Cobs),
+                "{e:?}"
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(drive.wait().0.code(), Some(3));
+
+    // A frame cut short: the host closes the link mid-frame.
+    let mut drive = PilDrive::spawn(&config(ControllerKind::Pd, false), settings).unwrap();
+    drive.send_raw(&bytes[..3]).unwrap();
+    let (status, _, _) = drive.wait();
+    assert_eq!(status.code(), Some(3));
+}
