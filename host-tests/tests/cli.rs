@@ -307,3 +307,76 @@ fn new_commands_reject_bad_input_with_exit_2() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("line 2: column `root_strain`"));
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn pil_and_telemetry_reject_bad_input_with_exit_2_and_write_nothing() {
+    let dir = scratch("pil");
+    let out_csv = dir.join("out.csv");
+    let empty = dir.join("empty.txt");
+    std::fs::write(&empty, "INFO drive up\n").unwrap();
+    let bad = dir.join("bad.txt");
+    std::fs::write(&bad, "tlm 1 2 3 4.0 nope 6 7 1 0\n").unwrap();
+    let gap = dir.join("gap.txt");
+    std::fs::write(&gap, "tlm 1 0 0 0 0 0 0 1 0\ntlm 3 0 0 0 0 0 0 1 0\n").unwrap();
+    let out = out_csv.to_str().unwrap();
+    let cases: [(&[&str], &str); 7] = [
+        (
+            &["pil", "--elf", "/nonexistent/pil", "--no-insn-count"],
+            "/nonexistent/pil",
+        ),
+        (
+            &["pil", "--duration", "nan", "--no-insn-count"],
+            "--duration",
+        ),
+        (&["pil", "--timeout", "0"], "--timeout"),
+        (
+            &[
+                "telemetry",
+                "/nonexistent/raw.defmt",
+                "--elf",
+                "/x",
+                "--out",
+                out,
+            ],
+            "/nonexistent/raw.defmt",
+        ),
+        (
+            &["telemetry", empty.to_str().unwrap(), "--text", "--out", out],
+            "no move",
+        ),
+        (
+            &["telemetry", bad.to_str().unwrap(), "--text", "--out", out],
+            "theta_rad",
+        ),
+        (
+            &["telemetry", gap.to_str().unwrap(), "--text", "--out", out],
+            "dropped",
+        ),
+    ];
+    for (args, says) in cases {
+        let o = beam(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(o.stdout.is_empty(), "{args:?}");
+        assert!(!out_csv.exists(), "{args:?} wrote a file");
+    }
+    // Decoded text from a probe becomes the calibration CSV.
+    let good = dir.join("good.txt");
+    std::fs::write(
+        &good,
+        "INFO drive up\n[INFO ] tlm 9 0 0 0 -1.5707964 -1.5707964 0 0 0\n\
+         [INFO ] tlm 10 0 12 0.5 -1.5707964 -1.5707964 1e-6 1 0\n\
+         [INFO ] tlm 11 3 14 0.75 -1.5703 -1.5707 2e-6 1 0\n",
+    )
+    .unwrap();
+    let o = beam(&["telemetry", good.to_str().unwrap(), "--text", "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(&out_csv).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(lines[0].starts_with("t_s,tick,"));
+    assert_eq!(lines[1], "0,10,0,12,0.5,-1.5707964,-1.5707964,0.000001,1,0");
+    assert!(lines[2].starts_with("0.001,11,3,14,0.75,"));
+    std::fs::remove_dir_all(dir).ok();
+}

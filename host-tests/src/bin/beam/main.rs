@@ -19,6 +19,7 @@ macro_rules! with_modes {
 
 mod calibrate_cmd;
 mod optimize_cmd;
+mod pil_cmd;
 mod sweep_cmd;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -54,6 +55,10 @@ enum Command {
     Calibrate(calibrate_cmd::CalibrateArgs),
     /// Monte Carlo robustness: parameter errors and payloads, SMC against the PD baseline.
     Sweep(sweep_cmd::SweepArgs),
+    /// The paper's slew with the PIL firmware under QEMU as the drive (processor in the loop).
+    Pil(pil_cmd::PilArgs),
+    /// Turn a drive's defmt telemetry into the CSV `beam calibrate` reads.
+    Telemetry(pil_cmd::TelemetryArgs),
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -188,6 +193,8 @@ fn main() -> ExitCode {
         Command::Optimize(a) => optimize_cmd::run(&a),
         Command::Sweep(a) => sweep_cmd::run(&a),
         Command::Calibrate(a) => calibrate_cmd::run(&a),
+        Command::Pil(a) => pil_cmd::run(&a),
+        Command::Telemetry(a) => pil_cmd::telemetry(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

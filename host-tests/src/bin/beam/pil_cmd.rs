@@ -1,0 +1,255 @@
+//! `beam pil`: the paper's slew with the PIL firmware under QEMU as the drive, and
+//! `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
+
+use crate::{ControllerArg, PlantArgs, Preset};
+use clap::Args;
+use firmware::moves::ControllerKind;
+use host_tests::pil::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
+use host_tests::plant::Plant;
+use host_tests::sim::SimOptions;
+use host_tests::telemetry::{self, Decoded};
+use host_tests::{io, plot};
+use model_core::{Beam, ModalModel};
+use serde_json::json;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct PilArgs {
+    /// The simulated plant (the drive's own model is always aluminium, 3 modes; --payload
+    /// goes to both).
+    #[command(flatten)]
+    plant: PlantArgs,
+    /// Control law the drive runs (gains from the compiled table; PD baseline gains).
+    #[arg(long, value_enum, default_value = "smc")]
+    controller: ControllerArg,
+    /// Simulated time after the move starts, s.
+    #[arg(long, default_value_t = 2.0)]
+    duration: f64,
+    /// Seed of the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo fw`].
+    #[arg(long, value_name = "ELF")]
+    elf: Option<PathBuf>,
+    /// The QEMU binary.
+    #[arg(long, default_value = "qemu-system-arm")]
+    qemu: String,
+    /// Seconds before QEMU is killed.
+    #[arg(long, default_value_t = 120, value_parser = clap::value_parser!(u32).range(1..=3600))]
+    timeout: u32,
+    /// The instruction-count plugin [default: built from ../shared/tools/qemu-insn-count].
+    #[arg(long, value_name = "SO")]
+    insn_plugin: Option<PathBuf>,
+    /// Do not count instructions.
+    #[arg(long, conflicts_with = "insn_plugin")]
+    no_insn_count: bool,
+    /// Write the drive's telemetry for the move as CSV (the `beam calibrate` format).
+    #[arg(long, value_name = "FILE")]
+    telemetry: Option<PathBuf>,
+    /// Write the trace as CSV.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Write the paper's figures 2-5 (.png or .svg).
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+fn kind(c: ControllerArg) -> ControllerKind {
+    match c {
+        ControllerArg::Pd => ControllerKind::Pd,
+        ControllerArg::Smc => ControllerKind::Smc,
+        ControllerArg::SmcStrain => ControllerKind::SmcStrain,
+    }
+}
+
+pub fn run(a: &PilArgs) -> Result<(), String> {
+    if !(a.duration.is_finite() && a.duration > 0.0 && a.duration <= 3600.0) {
+        return Err(format!(
+            "--duration {} must be a number of seconds in (0, 3600]",
+            a.duration
+        ));
+    }
+    let beam = crate::beam(&a.plant)?;
+    let payload_kg = beam.params().tip_mass_kg as f32;
+    if let Some(path) = &a.plot {
+        plot::check_extension(path)?;
+    }
+    let plugin = match (&a.insn_plugin, a.no_insn_count) {
+        (_, true) => None,
+        (Some(p), false) => Some(p.clone()),
+        (None, false) => Some(build_plugin(&paths::insn_tool(), &paths::plugin_dir())?),
+    };
+    let cfg = PilConfig {
+        elf: a.elf.clone().unwrap_or_else(paths::pil_elf),
+        qemu: a.qemu.clone(),
+        plugin,
+        timeout_s: a.timeout,
+        controller: kind(a.controller),
+        payload_kg,
+    };
+    let law = cfg
+        .controller
+        .law(payload_kg)
+        .ok_or_else(|| format!("the gain table has no `{}` rows", cfg.controller.name()))?;
+    let opts = SimOptions {
+        duration_s: a.duration,
+        sensors: host_tests::sensors::SensorConfig {
+            seed: a.seed,
+            ..Default::default()
+        },
+        ..SimOptions::default()
+    };
+    let out = with_modes!(a.plant.modes, pil_n(&beam, &cfg, &opts))?;
+    if let Some(path) = &a.telemetry {
+        let rows = telemetry::first_move(&out.telemetry.rows)
+            .ok_or("the drive's telemetry shows no move")?;
+        io::write_atomically(path, |w| {
+            telemetry::write_csv(rows, 1e-3, w).map_err(std::io::Error::other)
+        })
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    if let Some(path) = &a.csv {
+        io::write_atomically(path, |w| io::write_trace_csv(&out.run, w))
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    let preset = Preset::from(a.plant.preset).name();
+    if let Some(path) = &a.plot {
+        let title = format!(
+            "{} slew (PIL), {} preset, {} modes",
+            law.name(),
+            preset,
+            a.plant.modes
+        );
+        io::plot_atomically(path, |tmp| plot::plot(&out.run, &title, tmp))?;
+    }
+    let m = host_tests::metrics::metrics(&out.run);
+    let reason = out.run.breakdown.as_ref().map(|(_, why)| why.to_string());
+    let insns = out.insns;
+    if a.json {
+        let mut v = serde_json::to_value(&m).map_err(|e| e.to_string())?;
+        let o = v.as_object_mut().ok_or("metrics are not an object")?;
+        o.insert("preset".into(), json!(preset));
+        o.insert("modes".into(), json!(a.plant.modes));
+        o.insert("controller".into(), json!(law.name()));
+        o.insert("gains".into(), crate::gains_json(&law));
+        o.insert("breakdown_reason".into(), json!(reason));
+        o.insert("faults".into(), json!(out.run.faults));
+        o.insert("pil_ticks".into(), json!(out.ticks));
+        o.insert("pil_max_torque_diff".into(), json!(out.max_torque_diff));
+        o.insert("pil_max_ulps".into(), json!(out.max_ulps));
+        o.insert("pil_identical".into(), json!(out.identical));
+        o.insert("insns_min".into(), json!(insns.map(|i| i.min)));
+        o.insert("insns_mean".into(), json!(insns.map(|i| i.mean)));
+        o.insert("insns_max".into(), json!(insns.map(|i| i.max)));
+        println!("{v}");
+    } else {
+        crate::print_summary(&m, &out.run, &law, preset, a.plant.modes, reason.as_deref());
+        println!(
+            "  PIL: {} ticks on the emulated STM32F405; torques {} the host build's{}",
+            out.ticks,
+            if out.identical {
+                "bit-identical to"
+            } else {
+                "differ from"
+            },
+            if out.identical {
+                String::new()
+            } else {
+                format!(
+                    " (max {:.3e} N m, {} ulps)",
+                    out.max_torque_diff, out.max_ulps
+                )
+            }
+        );
+        if let Some(i) = insns {
+            println!(
+                "  instructions per tick: min {}, mean {:.1}, max {}",
+                i.min, i.mean, i.max
+            );
+        }
+    }
+    Ok(())
+}
+
+fn pil_n<const N: usize>(
+    beam: &Beam,
+    cfg: &PilConfig,
+    opts: &SimOptions,
+) -> Result<PilOutcome, String> {
+    let model = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
+    run_pil(Plant::new(model), cfg, opts)
+}
+
+#[derive(Args)]
+pub struct TelemetryArgs {
+    /// The captured telemetry: raw defmt bytes, or decoded text with --text.
+    input: PathBuf,
+    /// The firmware the capture came from (its defmt table decodes raw bytes).
+    #[arg(long, value_name = "ELF", required_unless_present = "text")]
+    elf: Option<PathBuf>,
+    /// The input is text already decoded by `probe-rs run` or `defmt-print`.
+    #[arg(long)]
+    text: bool,
+    /// Write every row, not just the first move's.
+    #[arg(long)]
+    all: bool,
+    /// Tick period, s.
+    #[arg(long, default_value_t = 1e-3)]
+    ts: f64,
+    /// The CSV to write.
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+}
+
+pub fn telemetry(a: &TelemetryArgs) -> Result<(), String> {
+    if !(a.ts.is_finite() && a.ts > 0.0 && a.ts <= 1.0) {
+        return Err(format!("--ts {} must be a period in (0, 1] s", a.ts));
+    }
+    let bytes = std::fs::read(&a.input).map_err(|e| format!("{}: {e}", a.input.display()))?;
+    let decoded: Decoded = if a.text {
+        let text = String::from_utf8(bytes).map_err(|_| {
+            format!(
+                "{}: not UTF-8 text (drop --text for raw defmt)",
+                a.input.display()
+            )
+        })?;
+        telemetry::parse_text(&text).map_err(|e| format!("{}: {e}", a.input.display()))?
+    } else {
+        let elf_path = a
+            .elf
+            .as_ref()
+            .ok_or("--elf is needed to decode raw defmt")?;
+        let elf = std::fs::read(elf_path).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+        telemetry::decode_defmt(&elf, &bytes).map_err(|e| format!("{}: {e}", a.input.display()))?
+    };
+    let rows = if a.all {
+        &decoded.rows[..]
+    } else {
+        telemetry::first_move(&decoded.rows).ok_or_else(|| {
+            format!(
+                "{}: no move in {} telemetry rows (--all writes them anyway)",
+                a.input.display(),
+                decoded.rows.len()
+            )
+        })?
+    };
+    if rows.is_empty() {
+        return Err(format!("{}: no telemetry rows", a.input.display()));
+    }
+    let mut csv = vec![];
+    telemetry::write_csv(rows, a.ts, &mut csv)
+        .map_err(|e| format!("{}: {e}", a.input.display()))?;
+    io::write_atomically(&a.out, |w| w.write_all(&csv))
+        .map_err(|e| format!("{}: {e}", a.out.display()))?;
+    eprintln!(
+        "{} rows written to {} ({} other messages, {} malformed frames skipped)",
+        rows.len(),
+        a.out.display(),
+        decoded.other.len(),
+        decoded.malformed
+    );
+    Ok(())
+}
