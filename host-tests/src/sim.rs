@@ -80,6 +80,8 @@ pub struct SimOptions {
     pub idle_ticks: u32,
     /// Simulated sensors.
     pub sensors: SensorConfig,
+    /// A fault injected during the run, if any.
+    pub fault: Option<Injection>,
 }
 
 impl Default for SimOptions {
@@ -89,8 +91,50 @@ impl Default for SimOptions {
             integrator: Integrator::default(),
             idle_ticks: 50,
             sensors: SensorConfig::default(),
+            fault: None,
         }
     }
+}
+
+/// A fault injected into the closed loop from `at_s` after the move starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Injection {
+    /// What goes wrong.
+    pub kind: FaultKind,
+    /// When, s after the move starts.
+    pub at_s: f64,
+}
+
+/// The failures users of motor drives report, as they reach the drive's inputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FaultKind {
+    /// The encoder counter jumps by this many counts once (a glitch on the A/B lines) and
+    /// keeps the offset.
+    EncoderGlitch {
+        /// Counts added.
+        counts: i32,
+    },
+    /// The encoder counter stops changing (a broken wire or a slipping coupling).
+    EncoderStuck,
+    /// The strain bridge is disconnected: the converter reads its positive rail.
+    StrainDisconnected,
+    /// The strain gauge's offset drifts (temperature) by this much strain per second.
+    StrainDrift {
+        /// Strain per second.
+        per_s: f64,
+    },
+    /// The amplifier's fault line is asserted from then on.
+    AmpFault,
+    /// An external torque on the hub (N m) for `for_s` seconds, which holds the drive at its
+    /// torque limit.
+    LoadTorque {
+        /// Torque, N m.
+        nm: f64,
+        /// Duration, s.
+        for_s: f64,
+    },
+    /// One control tick does not run: the amplifier keeps the previous command.
+    MissedTick,
 }
 
 /// One recorded tick: the true plant state and what the controller did.
@@ -120,6 +164,8 @@ pub struct Sample {
     pub theta_meas: f64,
     /// Root strain as the controller measured it (ADC code, offset removed).
     pub root_strain_meas: f64,
+    /// Faults latched after the tick.
+    pub faults: model_core::FaultFlags,
 }
 
 /// A finished run.
@@ -236,6 +282,42 @@ impl<const K: usize> DriveLoop for Controller<K> {
     }
 }
 
+/// Applies `f` to this tick's raw readings (or load torque, or tick skip).
+#[allow(clippy::too_many_arguments)]
+fn inject(
+    f: Injection,
+    t: f64,
+    first: bool,
+    raw: &mut RawMeasurement,
+    stuck_raw: &mut Option<u32>,
+    load: &mut f64,
+    skip: &mut bool,
+    sensors: &SensorConfig,
+) {
+    let adc = sensors.adc;
+    match f.kind {
+        FaultKind::EncoderGlitch { counts } => {
+            raw.encoder_raw = raw.encoder_raw.wrapping_add(counts as u32) & sensors.encoder.mask();
+        }
+        FaultKind::EncoderStuck => {
+            raw.encoder_raw = *stuck_raw.get_or_insert(raw.encoder_raw);
+        }
+        FaultKind::StrainDisconnected => raw.strain_root_code = adc.max_code(),
+        FaultKind::StrainDrift { per_s } => {
+            let drift = (per_s * (t - f.at_s) / adc.strain_per_code()).round();
+            let code = raw.strain_root_code as f64 + drift;
+            raw.strain_root_code = code.clamp(adc.min_code() as f64, adc.max_code() as f64) as i32;
+        }
+        FaultKind::AmpFault => raw.amp_fault = true,
+        FaultKind::LoadTorque { nm, for_s } => {
+            if t < f.at_s + for_s {
+                *load = nm;
+            }
+        }
+        FaultKind::MissedTick => *skip = first,
+    }
+}
+
 /// Runs `controller` against `plant` from rest at the move's start.
 pub fn run<const N: usize, const K: usize>(
     plant: Plant<N>,
@@ -287,10 +369,32 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
     };
     let mut samples = Vec::with_capacity(ticks + 1);
     let mut breakdown = None;
+    let mut last_cmd = None;
+    let mut stuck_raw = None;
     for k in 0..=ticks {
         let t = time_of(k);
-        let raw = read(&x, &mut sensors);
-        let cmd = drive.tick(&raw, k == 0)?;
+        let mut raw = read(&x, &mut sensors);
+        let mut load = 0.0;
+        let mut skip = false;
+        if let Some(f) = opts.fault.filter(|f| t >= f.at_s - 1e-12) {
+            // The first tick at or after the fault's time.
+            let first = t - f.at_s < ts - 1e-12;
+            inject(
+                f,
+                t,
+                first,
+                &mut raw,
+                &mut stuck_raw,
+                &mut load,
+                &mut skip,
+                &opts.sensors,
+            );
+        }
+        let cmd = match (skip, last_cmd) {
+            (true, Some(previous)) => previous,
+            _ => drive.tick(&raw, k == 0)?,
+        };
+        last_cmd = Some(cmd);
         let tau = plant.saturate(cmd.torque_nm as f64);
         let out = plant.outputs(&x);
         samples.push(Sample {
@@ -306,6 +410,7 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
             mode: cmd.mode,
             theta_meas: cmd.theta_rad as f64,
             root_strain_meas: cmd.strain as f64,
+            faults: cmd.faults,
         });
         if k == ticks {
             break;
@@ -314,9 +419,10 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
             Integrator::Rk4 { substeps } => {
                 let n = substeps.max(1);
                 let h = ts / n as f64;
-                (0..n).fold(x, |x, _| plant.rk4_step(&x, tau, h))
+                (0..n).fold(x, |x, _| plant.rk4_step(&x, tau + load, h))
             }
-            Integrator::Dop853 { rtol, atol } => match plant.dop853(&x, tau, ts, rtol, atol) {
+            Integrator::Dop853 { rtol, atol } => match plant.dop853(&x, tau + load, ts, rtol, atol)
+            {
                 Ok(next) => next,
                 Err(_) => {
                     breakdown = Some((t + ts, Breakdown::NonFinite));

@@ -52,7 +52,8 @@ pub fn parse_message(text: &str) -> Option<Result<Row, String>> {
 }
 
 fn parse_fields(f: &[&str]) -> Result<Row, String> {
-    if f.len() != 9 {
+    // Probe tools may append the log location after the message; the nine fields come first.
+    if f.len() < 9 {
         return Err(format!("{} fields after `tlm`, expected 9", f.len()));
     }
     fn num<T: std::str::FromStr>(f: &[&str], i: usize, name: &str) -> Result<T, String> {
@@ -161,7 +162,7 @@ pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<
             return Err(format!(
                 "tick {} follows tick {}: samples were dropped",
                 r.tick,
-                expected.wrapping_sub(1)
+                rows[i - 1].tick
             ));
         }
         let _ = writeln!(
@@ -233,7 +234,7 @@ mod tests {
         let mut out = vec![];
         assert!(write_csv(&[row(5), row(6), row(8)], 1e-3, &mut out)
             .unwrap_err()
-            .contains("tick 8 follows tick 7"));
+            .contains("tick 8 follows tick 6"));
         let mut out = vec![];
         write_csv(&[row(5), row(6)], 1e-3, &mut out).unwrap();
         let text = String::from_utf8(out).unwrap();

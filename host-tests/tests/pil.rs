@@ -202,3 +202,57 @@ fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
     let (status, _, _) = drive.wait();
     assert_eq!(status.code(), Some(3));
 }
+
+/// Two injected faults through the emulated drive: it must react as the host build does, on
+/// the same tick, with the same fault (and so the same as `tests/faults.rs` requires).
+#[test]
+fn injected_faults_get_the_same_reaction_on_the_same_tick_through_the_pil() {
+    if !qemu_present() {
+        return;
+    }
+    use host_tests::sim::{FaultKind, Injection};
+    use model_core::FaultFlags;
+    for (kind, at_s, expected) in [
+        (
+            FaultKind::EncoderGlitch { counts: 5000 },
+            0.2,
+            FaultFlags::ENCODER_JUMP,
+        ),
+        (FaultKind::AmpFault, 0.3, FaultFlags::AMP_FAULT),
+        (FaultKind::EncoderStuck, 0.1, FaultFlags::ENCODER_STUCK),
+    ] {
+        let opts = SimOptions {
+            duration_s: 0.6,
+            fault: Some(Injection { kind, at_s }),
+            ..SimOptions::default()
+        };
+        let pil = run_pil(
+            Plant::new(model()),
+            &config(ControllerKind::Smc, false),
+            &opts,
+        )
+        .unwrap();
+        let host = run(
+            Plant::new(model()),
+            build_controller_for(ControllerKind::Smc, 0.0).unwrap(),
+            &opts,
+        )
+        .unwrap();
+        assert!(pil.identical, "{kind:?}");
+        assert_eq!(pil.run.samples, host.samples, "{kind:?}");
+        let k = pil
+            .run
+            .samples
+            .iter()
+            .position(|s| s.mode == Mode::Fault)
+            .unwrap();
+        assert_eq!(pil.run.samples[k].faults, expected, "{kind:?}");
+        let injected = (at_s * 1000.0).round() as usize;
+        if expected != FaultFlags::ENCODER_STUCK {
+            assert_eq!(k, injected, "{kind:?}: reaction not in the same tick");
+        } else {
+            assert!(k - injected <= 100, "{kind:?}: {} ticks", k - injected);
+        }
+        assert!(pil.run.samples[k..].iter().all(|s| s.torque == 0.0));
+    }
+}

@@ -13,7 +13,7 @@
 
 use crate::beam::{ParamError, ParamErrorKind};
 use crate::law::{ControlLaw, Estimate};
-use crate::measure::{AdcSpec, CounterExtender, EncoderSpec, LowPass};
+use crate::measure::{angle_rad, AdcSpec, CounterExtender, EncoderSpec, LowPass};
 use crate::spline::{RefPoint, Spline};
 use core::fmt;
 
@@ -67,9 +67,12 @@ impl FaultFlags {
     pub const START_MISMATCH: FaultFlags = FaultFlags(1 << 5);
     /// A driver reported a failure (see [`RawMeasurement::driver_fault`]).
     pub const DRIVER: FaultFlags = FaultFlags(1 << 6);
+    /// The encoder did not move for [`STALL_TICKS`] while the drive commanded at least
+    /// [`STALL_TORQUE_FRACTION`] of its torque limit: a stuck encoder or a blocked hub.
+    pub const ENCODER_STUCK: FaultFlags = FaultFlags(1 << 7);
 
     /// Names for display, in bit order.
-    const NAMES: [&'static str; 7] = [
+    const NAMES: [&'static str; 8] = [
         "non-finite",
         "adc-rail",
         "encoder-jump",
@@ -77,6 +80,7 @@ impl FaultFlags {
         "amp-fault",
         "start-mismatch",
         "driver",
+        "encoder-stuck",
     ];
 
     /// True when no fault is set.
@@ -207,6 +211,7 @@ struct Config<const K: usize> {
     law: ControlLaw,
     spline: Spline<K>,
     rad_per_count: f32,
+    rad_per_count_f64: f64,
     strain_per_code: f32,
     max_counts_per_tick: i64,
     velocity_lpf: LowPass,
@@ -227,7 +232,18 @@ struct State {
     offset_code: f32,
     start_pending: bool,
     ticks: u32,
+    /// Consecutive ticks with no count change under substantial torque.
+    stall_ticks: u32,
 }
+
+/// Ticks without an encoder count under substantial torque before [`FaultFlags::ENCODER_STUCK`].
+/// At a fifth of the aluminium drive's 10 N m limit the free hub (0.027 kg m^2 with the beam)
+/// turns about 0.015 rad, nearly 40 counts, in 20 ms from rest, and a moving hub many more:
+/// no count at all means the encoder or the hub is stuck, and the loop is pushing blind.
+/// (A reversal stops the count for a tick or two, far less.)
+pub const STALL_TICKS: u32 = 20;
+/// Fraction of the torque limit above which a motionless encoder counts toward a stall.
+pub const STALL_TORQUE_FRACTION: f32 = 0.2;
 
 /// Idle samples averaged for the strain offset at most (a quarter second at 1 kHz is plenty,
 /// and the sum cannot overflow).
@@ -312,6 +328,7 @@ impl<const K: usize> Controller<K> {
             law,
             spline,
             rad_per_count: rad_per_count as f32,
+            rad_per_count_f64: rad_per_count,
             strain_per_code: s.adc.strain_per_code() as f32,
             max_counts_per_tick: max_counts as i64,
             velocity_lpf,
@@ -398,7 +415,12 @@ impl<const K: usize> Controller<K> {
         if delta.unsigned_abs() > cfg.max_counts_per_tick as u64 {
             faults.insert(FaultFlags::ENCODER_JUMP);
         }
-        let theta = s.theta_home_rad + count as f32 * cfg.rad_per_count;
+        let theta = angle_rad(
+            count,
+            s.theta_home_rad,
+            cfg.rad_per_count,
+            cfg.rad_per_count_f64,
+        );
         let omega = cfg
             .velocity_lpf
             .process(&mut st.omega, delta as f32 * cfg.rad_per_count / s.ts_s);
@@ -490,10 +512,24 @@ impl<const K: usize> Controller<K> {
             }
         }
         let limit = s.torque_limit_nm;
+        // Not `clamp`: its min <= max assertion would put a panic on the tick path, and
+        // the limit was validated positive when the controller was built.
+        let mut torque = torque.max(-limit).min(limit);
+        if st.mode != Mode::Fault
+            && delta == 0
+            && libm::fabsf(torque) >= STALL_TORQUE_FRACTION * limit
+        {
+            st.stall_ticks = st.stall_ticks.saturating_add(1);
+        } else {
+            st.stall_ticks = 0;
+        }
+        if st.stall_ticks >= STALL_TICKS {
+            st.faults.insert(FaultFlags::ENCODER_STUCK);
+            st.mode = Mode::Fault;
+            torque = 0.0;
+        }
         TorqueCommand {
-            // Not `clamp`: its min <= max assertion would put a panic on the tick path, and
-            // the limit was validated positive when the controller was built.
-            torque_nm: torque.max(-limit).min(limit),
+            torque_nm: torque,
             mode: st.mode,
             faults: st.faults,
             theta_rad: theta,
@@ -533,25 +569,61 @@ mod tests {
         model_terms: false,
     });
 
+    /// The raw counter of a hub exactly on the move's reference `ticks` ticks in.
+    fn on_reference(c: &Controller<4>, ticks: u32) -> RawMeasurement {
+        let s = c.settings();
+        let theta = c.spline().eval(ticks as f32 * s.ts_s).pos;
+        let count = ((theta - s.theta_home_rad) / s.encoder.rad_per_count() as f32).round();
+        RawMeasurement {
+            encoder_raw: (count as i64 as u32) & s.encoder.mask(),
+            ..Default::default()
+        }
+    }
+
     #[test]
     fn idle_until_started_then_slews_then_holds() {
         let mut c = controller(Law::Pd(PdGains::BASELINE));
-        let raw = RawMeasurement::default();
-        let out = c.step(&raw);
+        let out = c.step(&on_reference(&c, 0));
         assert_eq!((out.mode, out.torque_nm), (Mode::Idle, 0.0));
         c.start_move().unwrap();
-        let out = c.step(&raw);
+        let out = c.step(&on_reference(&c, 0));
         assert_eq!(out.mode, Mode::Slewing);
-        // At rest at the start the PD pushes toward the reference, which has not moved yet.
+        // On the reference at rest at the start: nothing to correct yet.
         assert_eq!(out.torque_nm, 0.0);
-        for _ in 0..400 {
-            c.step(&raw);
+        for k in 1..=400 {
+            let out = c.step(&on_reference(&c, k));
+            assert!(out.faults.is_empty(), "tick {k}: {}", out.faults);
         }
-        let out = c.step(&raw);
+        let out = c.step(&on_reference(&c, 400));
         assert_eq!(out.mode, Mode::Holding);
-        // The hub never moved, so PD pushes with Kp * pi, saturated at the limit.
-        assert_eq!(out.torque_nm, 10.0);
+        // At the end point and at rest (the velocity filter has settled): no torque needed
+        // beyond a count's worth of error.
+        assert!(out.torque_nm.abs() < 0.01, "{}", out.torque_nm);
         assert_eq!(c.start_move(), Ok(()));
+    }
+
+    #[test]
+    fn a_hub_that_does_not_move_under_torque_trips_encoder_stuck() {
+        let mut c = controller(Law::Pd(PdGains::BASELINE));
+        let still = RawMeasurement::default();
+        c.step(&still);
+        c.start_move().unwrap();
+        // The reference runs away from a hub that never moves; once PD's torque passes a
+        // fifth of the limit, STALL_TICKS ticks without a count trip the fault.
+        let mut first_strong = None;
+        for k in 0..400u32 {
+            let out = c.step(&still);
+            if out.mode == Mode::Fault {
+                assert_eq!(out.faults, FaultFlags::ENCODER_STUCK);
+                assert_eq!(out.torque_nm, 0.0);
+                assert_eq!(Some(k), first_strong.map(|k0: u32| k0 + STALL_TICKS - 1));
+                return;
+            }
+            if first_strong.is_none() && out.torque_nm.abs() >= STALL_TORQUE_FRACTION * 10.0 {
+                first_strong = Some(k);
+            }
+        }
+        panic!("no encoder-stuck fault");
     }
 
     #[test]
@@ -578,22 +650,51 @@ mod tests {
     fn the_next_move_is_swapped_in_between_moves_only() {
         let half_pi = core::f32::consts::FRAC_PI_2;
         let back = Spline::quintic(half_pi, -half_pi, 0.35).unwrap();
+        let wrong = Spline::quintic(0.0, half_pi, 0.35).unwrap();
         let mut c = controller(Law::Pd(PdGains::BASELINE));
-        c.step(&RawMeasurement::default());
+        c.step(&on_reference(&c, 0));
         c.start_move().unwrap();
-        c.step(&RawMeasurement::default());
+        c.step(&on_reference(&c, 0));
         assert_eq!(c.set_spline(back.clone()), Err(CommandError::Busy));
-        // The hub never left -90 deg, so a move that starts at +90 deg is refused at the
-        // next tick as a start mismatch, not run.
-        for _ in 0..400 {
-            c.step(&RawMeasurement::default());
+        for k in 1..=400 {
+            c.step(&on_reference(&c, k));
         }
         assert_eq!(c.mode(), Mode::Holding);
+        // The hub is at +90 deg: the way back starts there and runs.
+        let at_end = on_reference(&c, 400);
         c.set_spline(back).unwrap();
         c.start_move().unwrap();
-        let out = c.step(&RawMeasurement::default());
+        assert_eq!(c.step(&at_end).mode, Mode::Slewing);
+        for k in 1..=400 {
+            c.step(&on_reference(&c, k));
+        }
+        assert_eq!(c.mode(), Mode::Holding);
+        // A move that starts at 0 deg is refused at the next tick as a start mismatch.
+        let home = on_reference(&c, 400);
+        c.set_spline(wrong).unwrap();
+        c.start_move().unwrap();
+        let out = c.step(&home);
         assert_eq!(out.mode, Mode::Fault);
         assert!(out.faults.contains(FaultFlags::START_MISMATCH));
+    }
+
+    #[test]
+    fn a_torque_that_overflows_latches_non_finite_with_the_torque_off() {
+        let mut c = controller(Law::Pd(PdGains { kp: 3e38, kd: 3e38 }));
+        c.step(&on_reference(&c, 0));
+        c.start_move().unwrap();
+        c.step(&on_reference(&c, 0));
+        // One count off the reference: 3e38 * 3.8e-4 is finite, the velocity term is not.
+        let out = c.step(&RawMeasurement {
+            encoder_raw: 5,
+            ..Default::default()
+        });
+        assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
+        assert!(
+            out.faults.contains(FaultFlags::NON_FINITE),
+            "{}",
+            out.faults
+        );
     }
 
     #[test]
@@ -715,11 +816,26 @@ mod tests {
         /// limit, and torque is only applied while slewing or holding.
         #[test]
         fn step_is_total_and_bounded(
-            law_pick in 0usize..3,
+            law_pick in 0usize..4,
             starts in prop::collection::vec(any::<bool>(), 1..60),
-            raws in prop::collection::vec((any::<u32>(), any::<i32>(), any::<bool>(), any::<bool>()), 1..60),
+            raws in prop::collection::vec((
+                // Any counter value, or small steps (so the loop actually runs instead of
+                // tripping the jump check at once).
+                prop_oneof![any::<u32>(), 0u32..200, 65_400u32..65_536],
+                // Any code, the 24-bit rails, and codes near zero.
+                prop_oneof![any::<i32>(), Just(8_388_607), Just(-8_388_608), -5_000i32..5_000],
+                any::<bool>(),
+                any::<bool>(),
+            ), 1..60),
         ) {
-            let laws = [Law::Pd(PdGains::BASELINE), SMC, Law::SmcStrain(SmcGains { c: -50.0, model_terms: true, ..match SMC { Law::Smc(g) => g, _ => unreachable!() } })];
+            // The last law overflows f32 on the first error: every torque it computes is
+            // non-finite, which must latch NON_FINITE with the torque off.
+            let laws = [
+                Law::Pd(PdGains::BASELINE),
+                SMC,
+                Law::SmcStrain(SmcGains { c: -50.0, model_terms: true, ..match SMC { Law::Smc(g) => g, _ => unreachable!() } }),
+                Law::Pd(PdGains { kp: 3e38, kd: 3e38 }),
+            ];
             let mut c = controller(laws[law_pick]);
             for (i, (enc, code, amp, drv)) in raws.into_iter().enumerate() {
                 if starts[i % starts.len()] {

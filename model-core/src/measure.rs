@@ -115,6 +115,26 @@ impl CounterExtender {
     }
 }
 
+/// Counts within this distance of home convert to `f32` exactly (2^24).
+pub const EXACT_F32_COUNTS: i64 = 1 << 24;
+
+/// The hub angle of an extended count, `home + count * rad_per_count`.
+///
+/// Computed from the integer count every tick and never accumulated, so no error builds up
+/// however long the drive runs. Within [`EXACT_F32_COUNTS`] of home (1024 revolutions at
+/// 16384 counts/rev) this is `f32` arithmetic on an exactly converted count, the fast path the
+/// slew always takes. Further out, where `count as f32` would round away whole counts, it is
+/// done in `f64` (software floating point on the Cortex-M4F, taken only there), so the angle
+/// is the nearest `f32` to the true value for any count an `i64` holds.
+#[inline]
+pub fn angle_rad(count: i64, home_rad: f32, rad_per_count: f32, rad_per_count_f64: f64) -> f32 {
+    if count.unsigned_abs() < EXACT_F32_COUNTS as u64 {
+        home_rad + count as f32 * rad_per_count
+    } else {
+        (home_rad as f64 + count as f64 * rad_per_count_f64) as f32
+    }
+}
+
 /// First-order low-pass coefficient: `y += alpha (x - y)` with `alpha = 1 - exp(-2 pi fc Ts)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -162,6 +182,69 @@ mod tests {
         assert!((y - 3.0).abs() < 1e-5);
         assert!(LowPass::from_cutoff(0.0, 1e-3).is_none());
         assert!(LowPass::from_cutoff(f32::NAN, 1e-3).is_none());
+    }
+
+    /// A week of continuous rotation at the encoder-jump limit (130 counts a tick, 49.9 rad/s)
+    /// on the 16-bit counter, then all the way back: the 64-bit count is exact throughout,
+    /// the angle is the nearest f32 to the true angle wherever the hub is (checked against
+    /// whole revolutions plus the remainder, computed apart from the code under test), and
+    /// back at home the angle is exactly home again: nothing accumulates.
+    #[test]
+    fn a_week_at_full_speed_keeps_the_count_and_the_angle_exact() {
+        let spec = EncoderSpec::DEFAULT;
+        let (rpc, rpc32) = (spec.rad_per_count(), spec.rad_per_count() as f32);
+        let home = -core::f32::consts::FRAC_PI_2;
+        const STEP: u32 = 130;
+        const TICKS: u64 = 7 * 24 * 3600 * 1000;
+        let check = |count: i64| {
+            let revs = count.div_euclid(spec.counts_per_rev as i64) as f64;
+            let rem = count.rem_euclid(spec.counts_per_rev as i64) as f64;
+            let truth = home as f64 + revs * core::f64::consts::TAU + rem * rpc;
+            let got = angle_rad(count, home, rpc32, rpc) as f64;
+            let ulp = (truth.abs() as f32).to_bits();
+            let ulp = (f32::from_bits(ulp + 1) - f32::from_bits(ulp)) as f64;
+            assert!(
+                (got - truth).abs() <= 0.5 * ulp * (1.0 + 1e-6),
+                "count {count}: {got} vs {truth}"
+            );
+        };
+        for dir in [1i64, -1] {
+            let mut ext = CounterExtender::default();
+            let mut raw: u32 = if dir > 0 {
+                0
+            } else {
+                (TICKS as u32).wrapping_mul(STEP)
+            };
+            let start = if dir > 0 {
+                0
+            } else {
+                (TICKS * STEP as u64) as i64
+            };
+            ext.update(raw, &spec);
+            let mut count = start;
+            for k in 1..=TICKS {
+                raw = if dir > 0 {
+                    raw.wrapping_add(STEP)
+                } else {
+                    raw.wrapping_sub(STEP)
+                };
+                let (c, delta) = ext.update(raw, &spec);
+                count += dir * STEP as i64;
+                if delta != dir * STEP as i64 || c != count - start {
+                    panic!("tick {k}: count {c} delta {delta}");
+                }
+                if k % 10_000_000 == 0 {
+                    check(count);
+                }
+            }
+            check(count);
+            if dir < 0 {
+                assert_eq!(count, 0);
+                assert_eq!(angle_rad(count, home, rpc32, rpc), home);
+            } else {
+                assert_eq!(count, (TICKS * STEP as u64) as i64);
+            }
+        }
     }
 
     #[test]
