@@ -380,3 +380,82 @@ fn pil_and_telemetry_reject_bad_input_with_exit_2_and_write_nothing() {
     assert!(lines[2].starts_with("0.001,11,3,14,0.75,"));
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// Every subcommand, each kind of bad input: a missing file, a malformed file, an option out
+/// of range, a non-finite number. Each exits with code 2 and exactly one line on stderr,
+/// prints nothing on stdout, and leaves no file behind.
+#[test]
+fn every_subcommand_rejects_each_kind_of_bad_input_in_one_line() {
+    let dir = scratch("every");
+    let bad_toml = dir.join("bad.toml");
+    std::fs::write(&bad_toml, "ei_nm2 = [1, 2\n").unwrap();
+    let bad_csv = dir.join("bad.csv");
+    std::fs::write(&bad_csv, "t_s,torque_nm,theta_rad,root_strain\n0,1,2\n").unwrap();
+    let bad_tlm = dir.join("bad.txt");
+    std::fs::write(&bad_tlm, "tlm 1 2 3 4.0 5 6 7 eight 0\n").unwrap();
+    let not_elf = dir.join("not.elf");
+    std::fs::write(&not_elf, "not an ELF").unwrap();
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+    let inputs = [&bad_toml, &bad_csv, &bad_tlm, &not_elf];
+    let p = |p: &PathBuf| p.to_str().unwrap().to_string();
+    let (bt, bc, bl, ne) = (p(&bad_toml), p(&bad_csv), p(&bad_tlm), p(&not_elf));
+    let out_csv = format!("{o}.csv");
+    let out_png = format!("{o}.png");
+    let out_toml = format!("{o}.toml");
+    let out_bmp = format!("{o}.bmp");
+    let cases: Vec<Vec<&str>> = vec![
+        // model
+        vec!["model", "--params", "/nonexistent/p.toml"],
+        vec!["model", "--params", &bt],
+        vec!["model", "--modes", "9"],
+        vec!["model", "--payload", "nan"],
+        vec!["model", "--payload", "-1"],
+        // simulate
+        vec!["simulate", "--params", "/nonexistent/p.toml", "--csv", &out_csv],
+        vec!["simulate", "--params", &bt, "--csv", &out_csv],
+        vec!["simulate", "--duration", "0", "--csv", &out_csv],
+        vec!["simulate", "--controller", "pd", "--kp", "inf", "--plot", &out_png],
+        vec!["simulate", "--plot", &out_bmp],
+        // optimize
+        vec!["optimize", "--params", "/nonexistent/p.toml", "--table", &out_toml],
+        vec!["optimize", "--table", &bt],
+        vec!["optimize", "--samples", "0", "--table", &out_toml],
+        vec!["optimize", "--w2", "nan", "--table", &out_toml],
+        // calibrate
+        vec!["calibrate", "/nonexistent/log.csv", "--out", &out_toml],
+        vec!["calibrate", &bc, "--out", &out_toml],
+        vec!["calibrate", &bc, "--evals", "0", "--out", &out_toml],
+        vec!["calibrate", &bc, "--params", &bt, "--out", &out_toml],
+        // sweep
+        vec!["sweep", "--params", "/nonexistent/p.toml", "--csv", &out_csv],
+        vec!["sweep", "--params", &bt, "--csv", &out_csv],
+        vec!["sweep", "--cases", "0", "--csv", &out_csv],
+        vec!["sweep", "--payload-max", "nan", "--csv", &out_csv],
+        // pil
+        vec!["pil", "--elf", "/nonexistent/pil", "--no-insn-count", "--telemetry", &out_csv],
+        vec!["pil", "--elf", &ne, "--no-insn-count", "--csv", &out_csv],
+        vec!["pil", "--timeout", "0", "--csv", &out_csv],
+        vec!["pil", "--duration", "inf", "--no-insn-count", "--csv", &out_csv],
+        // telemetry
+        vec!["telemetry", "/nonexistent/raw", "--text", "--out", &out_csv],
+        vec!["telemetry", &bl, "--text", "--out", &out_csv],
+        vec!["telemetry", &bl, "--elf", &ne, "--out", &out_csv],
+        vec!["telemetry", &bl, "--text", "--ts", "nan", "--out", &out_csv],
+    ];
+    for args in &cases {
+        let r = beam(args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: not one line:\n{err}");
+        assert!(r.stdout.is_empty(), "{args:?}");
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| !inputs.contains(&p))
+            .collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    }
+    eprintln!("{} bad invocations, each refused in one line", cases.len());
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -90,7 +90,7 @@ struct PlantArgs {
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
     /// Tip (payload) mass, kg.
-    #[arg(long, value_name = "KG", visible_alias = "payload")]
+    #[arg(long, value_name = "KG", visible_alias = "payload", allow_negative_numbers = true)]
     tip_mass: Option<f64>,
 }
 
@@ -186,7 +186,28 @@ const DEFAULT_SMC: SmcGains = host_tests::sim::HAND_PICKED_SMC;
 const DEFAULT_SMC_STRAIN: SmcGains = host_tests::sim::HAND_PICKED_SMC_STRAIN;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                e.exit();
+            }
+            // One line, like every other error: clap's usage block would follow it.
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            eprintln!(
+                "beam: {} (see beam --help)",
+                first.trim_start_matches("error: ")
+            );
+            return ExitCode::from(2);
+        }
+    };
     let result = match cli.command {
         Command::Model(a) => run_model(&a),
         Command::Simulate(a) => run_simulate(&a),
@@ -199,7 +220,9 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("beam: error: {e}");
+            // One line, whatever the source's message looks like (TOML's spans several).
+            let line: Vec<&str> = e.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+            eprintln!("beam: error: {}", line.join("; "));
             ExitCode::from(2)
         }
     }
