@@ -229,6 +229,8 @@ struct State {
     last_strain: Option<f32>,
     zero_sum: i64,
     zero_n: u32,
+    /// `zero_sum / zero_n`, kept current.
+    zero_mean: f32,
     offset_code: f32,
     start_pending: bool,
     ticks: u32,
@@ -432,7 +434,7 @@ impl<const K: usize> Controller<K> {
                 faults.insert(FaultFlags::START_MISMATCH);
             } else {
                 if st.mode == Mode::Idle && st.zero_n > 0 {
-                    st.offset_code = (st.zero_sum as f64 / st.zero_n as f64) as f32;
+                    st.offset_code = st.zero_mean;
                 }
                 st.mode = Mode::Slewing;
                 st.ticks = 0;
@@ -449,6 +451,10 @@ impl<const K: usize> Controller<K> {
         if st.mode == Mode::Idle && st.zero_n < MAX_ZERO_SAMPLES {
             st.zero_sum += code as i64;
             st.zero_n += 1;
+            // The mean is kept current here, on the cheap idle ticks: the f64 division is
+            // software on the Cortex-M4F, and done at the start it made that tick the
+            // costliest of the move.
+            st.zero_mean = (st.zero_sum as f64 / st.zero_n as f64) as f32;
         }
         let strain = (code as f32 - st.offset_code) * cfg.strain_per_code;
         let strain_rate = match st.last_strain {
