@@ -90,7 +90,12 @@ struct PlantArgs {
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
     /// Tip (payload) mass, kg.
-    #[arg(long, value_name = "KG", visible_alias = "payload", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "KG",
+        visible_alias = "payload",
+        allow_negative_numbers = true
+    )]
     tip_mass: Option<f64>,
 }
 
