@@ -54,7 +54,11 @@ fn pil_elf() -> std::path::PathBuf {
             ])
             .status()
             .expect("running cargo");
-        assert!(status.success(), "building the PIL firmware failed");
+        assert!(
+            status.success(),
+            "building the PIL firmware failed (is the target installed? \
+             rustup target add thumbv7em-none-eabihf)"
+        );
     });
     paths::pil_elf()
 }
