@@ -2,13 +2,14 @@
 //! handling, with the STM32F4 peripherals replaced by frames from the host's simulated plant.
 //!
 //! Runs on QEMU's `netduinoplus2` (an emulated STM32F405). Each tick the host writes one
-//! [`SensorFrame`] to semihosting stdin; the drive hands its encoder count, strain code and
-//! fault line to the same generic drivers the board uses (the ADS1220 driver clocks the code
-//! out of a stand-in SPI bus with DRDY always ready), runs `Drive::tick`, and writes one
-//! [`CommandFrame`] back on stdout. The tick is bracketed by `insn_mark_start` /
-//! `insn_mark_end` for the instruction-count plugin, and its telemetry goes out through defmt,
-//! here a logger on semihosting stderr. No clocks are configured: QEMU has no RCC model, and
-//! lockstep with the host replaces the timer.
+//! [`SensorFrame`](firmware::pil::SensorFrame) to semihosting stdin; the drive hands its
+//! encoder count, strain code and fault line to the same generic drivers the board uses (the
+//! ADS1220 driver clocks the code out of a stand-in SPI bus with DRDY always ready), runs
+//! `Drive::tick`, and writes one [`CommandFrame`](firmware::pil::CommandFrame) back on
+//! stdout. The tick is bracketed by `insn_mark_start` / `insn_mark_end` for the
+//! instruction-count plugin, and its telemetry goes out through defmt, here a logger on
+//! semihosting stderr. No clocks are configured: QEMU has no RCC model, and lockstep with
+//! the host replaces the timer.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
