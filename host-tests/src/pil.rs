@@ -11,12 +11,12 @@
 
 use crate::plant::Plant;
 use crate::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
-use crate::telemetry::{self, Decoded};
+use crate::telemetry::{self, mode_of, Decoded};
 use firmware::moves::{build_controller_for, sequence, ControllerKind};
 use firmware::pil::{
     decode, encode, CommandFrame, DriveMessage, FrameReader, HostMessage, SensorFrame, MAX_FRAME,
 };
-use model_core::{ControllerSettings, FaultFlags, Mode, RawMeasurement, TorqueCommand};
+use model_core::{ControllerSettings, FaultFlags, RawMeasurement, TorqueCommand};
 use std::io::{BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
@@ -303,16 +303,6 @@ impl Drop for PilDrive {
         let _ = self.child.wait();
         let _ = std::fs::remove_file(&self.log);
     }
-}
-
-fn mode_of(m: u8) -> Option<Mode> {
-    Some(match m {
-        0 => Mode::Idle,
-        1 => Mode::Slewing,
-        2 => Mode::Holding,
-        3 => Mode::Fault,
-        _ => return None,
-    })
 }
 
 /// Distance between two f32s in units in the last place (0 when the bits are equal).

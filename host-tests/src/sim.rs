@@ -357,16 +357,7 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
         drive.tick(&raw, false)?;
     }
     let ticks = (opts.duration_s / ts).round() as usize;
-    // k / rate is the nearest double to the decimal time when the rate is a whole number of
-    // hertz (k * 0.001 is not: 572 * 0.001 = 0.5720000000000001).
-    let rate = (1.0 / ts).round();
-    let time_of = |k: usize| {
-        if (rate * ts - 1.0).abs() < 1e-12 {
-            k as f64 / rate
-        } else {
-            k as f64 * ts
-        }
-    };
+    let time_of = |k: usize| crate::io::tick_time(k, ts);
     let mut samples = Vec::with_capacity(ticks + 1);
     let mut breakdown = None;
     let mut last_cmd = None;

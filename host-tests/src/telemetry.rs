@@ -9,33 +9,23 @@
 //! message per line). Floats are printed by the decoder in shortest round-trip form, so the
 //! values parsed back are the drive's f32s exactly.
 
+use model_core::{FaultFlags, Mode};
 use std::fmt::Write as _;
 
-/// One tick as the drive logged it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Row {
-    /// Tick number since power-on.
-    pub tick: u32,
-    /// Raw encoder counter.
-    pub encoder_raw: u32,
-    /// Strain converter code.
-    pub strain_code: i32,
-    /// Torque commanded, N m.
-    pub torque_nm: f32,
-    /// Hub angle measured, rad.
-    pub theta_rad: f32,
-    /// Reference angle, rad.
-    pub theta_ref_rad: f32,
-    /// Root strain measured, offset removed.
-    pub strain: f32,
-    /// Mode: 0 idle, 1 slewing, 2 holding, 3 fault.
-    pub mode: u8,
-    /// Latched fault bits.
-    pub faults: u8,
-}
+/// One tick as the drive logged it: the firmware's own telemetry record.
+pub type Row = firmware::drive::Telemetry;
 
-/// Slewing, in [`Row::mode`].
-pub const MODE_SLEWING: u8 = 1;
+/// The controller mode of a logged or framed mode number (0 idle, 1 slewing, 2 holding,
+/// 3 fault), as the firmware writes `mode as u8`.
+pub fn mode_of(m: u8) -> Option<Mode> {
+    Some(match m {
+        0 => Mode::Idle,
+        1 => Mode::Slewing,
+        2 => Mode::Holding,
+        3 => Mode::Fault,
+        _ => return None,
+    })
+}
 
 /// Parses one decoded message. `None` if it is not a telemetry message (other log lines are
 /// skipped); an error if it is one but malformed.
@@ -68,8 +58,9 @@ fn parse_fields(f: &[&str]) -> Result<Row, String> {
         theta_rad: num(f, 4, "theta_rad")?,
         theta_ref_rad: num(f, 5, "theta_ref_rad")?,
         strain: num(f, 6, "strain")?,
-        mode: num(f, 7, "mode")?,
-        faults: num(f, 8, "faults")?,
+        mode: mode_of(num(f, 7, "mode")?)
+            .ok_or_else(|| format!("field `mode`: `{}` is not 0 to 3", f[7]))?,
+        faults: FaultFlags(num(f, 8, "faults")?),
     })
 }
 
@@ -131,10 +122,10 @@ pub fn parse_text(text: &str) -> Result<Decoded, String> {
 /// The rows of the first move: from the first slewing tick to the end of the log or the
 /// next idle tick. `None` if no move started.
 pub fn first_move(rows: &[Row]) -> Option<&[Row]> {
-    let start = rows.iter().position(|r| r.mode == MODE_SLEWING)?;
+    let start = rows.iter().position(|r| r.mode == Mode::Slewing)?;
     let len = rows[start..]
         .iter()
-        .position(|r| r.mode == 0)
+        .position(|r| r.mode == Mode::Idle)
         .unwrap_or(rows.len() - start);
     Some(&rows[start..start + len])
 }
@@ -144,15 +135,6 @@ pub fn first_move(rows: &[Row]) -> Option<&[Row]> {
 /// since calibration needs uniform sampling.
 pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<(), String> {
     let first = rows.first().ok_or("no telemetry rows")?.tick;
-    // k / rate is the nearest double to the decimal time for a whole-hertz rate.
-    let rate = (1.0 / ts_s).round();
-    let time_of = |k: usize| {
-        if (rate * ts_s - 1.0).abs() < 1e-12 {
-            k as f64 / rate
-        } else {
-            k as f64 * ts_s
-        }
-    };
     let mut s = String::from(
         "t_s,tick,encoder_raw,strain_code,torque_nm,theta_rad,theta_ref_rad,root_strain,mode,faults\n",
     );
@@ -168,7 +150,7 @@ pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{}",
-            time_of(i),
+            crate::io::tick_time(i, ts_s),
             r.tick,
             r.encoder_raw,
             r.strain_code,
@@ -176,8 +158,8 @@ pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<
             r.theta_rad,
             r.theta_ref_rad,
             r.strain,
-            r.mode,
-            r.faults
+            r.mode as u8,
+            r.faults.0
         );
     }
     w.write_all(s.as_bytes()).map_err(|e| e.to_string())
@@ -204,8 +186,8 @@ mod tests {
                 theta_rad: -std::f32::consts::FRAC_PI_2,
                 theta_ref_rad: -std::f32::consts::FRAC_PI_2,
                 strain: 1e-6,
-                mode: 1,
-                faults: 0,
+                mode: Mode::Slewing,
+                faults: FaultFlags(0),
             }]
             .to_vec()
         );
@@ -228,8 +210,8 @@ mod tests {
             theta_rad: 0.0,
             theta_ref_rad: 0.0,
             strain: 0.0,
-            mode: 1,
-            faults: 0,
+            mode: Mode::Slewing,
+            faults: FaultFlags(0),
         };
         let mut out = vec![];
         assert!(write_csv(&[row(5), row(6), row(8)], 1e-3, &mut out)

@@ -230,9 +230,10 @@ mod tests {
                 };
                 let (c, delta) = ext.update(raw, &spec);
                 count += dir * STEP as i64;
-                if delta != dir * STEP as i64 || c != count - start {
-                    panic!("tick {k}: count {c} delta {delta}");
-                }
+                assert!(
+                    delta == dir * STEP as i64 && c == count - start,
+                    "tick {k}: count {c} delta {delta}"
+                );
                 if k % 10_000_000 == 0 {
                     check(count);
                 }
