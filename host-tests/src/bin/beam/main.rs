@@ -23,7 +23,7 @@ mod pil_cmd;
 mod sweep_cmd;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use host_tests::metrics::{metrics, Metrics};
+use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, SimOptions, SimResult};
 use host_tests::{io, plot};
 use model_core::{Beam, BeamParams, Law, ModalModel, PdGains, Preset, SmcGains, Switching};
@@ -169,7 +169,14 @@ struct SimulateArgs {
     /// smc-strain: keep the model terms with q estimated from the root strain.
     #[arg(long)]
     model_terms: bool,
-    /// Simulated time, s.
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+/// What `simulate` and `pil` share: how long, which noise, what to write.
+#[derive(Args)]
+struct RunArgs {
+    /// Simulated time after the move starts, s.
     #[arg(long, default_value_t = 2.0)]
     duration: f64,
     /// Seed of the sensor noise.
@@ -184,6 +191,62 @@ struct SimulateArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+}
+
+impl RunArgs {
+    /// The run's options, checked before anything runs (the plot's format too).
+    fn options(&self) -> Result<SimOptions, String> {
+        if !(self.duration.is_finite() && self.duration > 0.0 && self.duration <= 3600.0) {
+            return Err(format!(
+                "--duration {} must be a number of seconds in (0, 3600]",
+                self.duration
+            ));
+        }
+        if let Some(path) = &self.plot {
+            plot::check_extension(path)?;
+        }
+        Ok(SimOptions {
+            duration_s: self.duration,
+            sensors: host_tests::sensors::SensorConfig {
+                seed: self.seed,
+                ..Default::default()
+            },
+            ..SimOptions::default()
+        })
+    }
+
+    /// Writes the trace CSV and the figures, if asked for.
+    fn write(&self, run: &SimResult, title: &str) -> Result<(), String> {
+        if let Some(path) = &self.csv {
+            io::write_atomically(path, |w| io::write_trace_csv(run, w))
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+        if let Some(path) = &self.plot {
+            io::plot_atomically(path, |tmp| plot::plot(run, title, tmp))?;
+        }
+        Ok(())
+    }
+}
+
+/// The run's metrics as a JSON object with what was run: the `--json` output's common part.
+fn run_json(
+    run: &SimResult,
+    law: &Law,
+    preset: &str,
+    modes: u8,
+) -> Result<serde_json::Map<String, serde_json::Value>, String> {
+    let v = serde_json::to_value(metrics(run)).map_err(|e| e.to_string())?;
+    let serde_json::Value::Object(mut o) = v else {
+        return Err("metrics are not an object".into());
+    };
+    let reason = run.breakdown.as_ref().map(|(_, why)| why.to_string());
+    o.insert("preset".into(), json!(preset));
+    o.insert("modes".into(), json!(modes));
+    o.insert("controller".into(), json!(law.name()));
+    o.insert("gains".into(), gains_json(law));
+    o.insert("breakdown_reason".into(), json!(reason));
+    o.insert("faults".into(), json!(run.faults));
+    Ok(o)
 }
 
 /// Hand-picked defaults for the aluminium preset, 3 modes (README, "Choosing the gains").
@@ -361,53 +424,20 @@ fn controller_name(c: ControllerArg) -> &'static str {
 fn run_simulate(a: &SimulateArgs) -> Result<(), String> {
     let beam = beam(&a.plant)?;
     let law = law(a)?;
-    if !(a.duration.is_finite() && a.duration > 0.0 && a.duration <= 3600.0) {
-        return Err(format!(
-            "--duration {} must be a number of seconds in (0, 3600]",
-            a.duration
-        ));
-    }
-    let opts = SimOptions {
-        duration_s: a.duration,
-        sensors: host_tests::sensors::SensorConfig {
-            seed: a.seed,
-            ..Default::default()
-        },
-        ..SimOptions::default()
-    };
-    if let Some(path) = &a.plot {
-        plot::check_extension(path)?;
-    }
+    let opts = a.run.options()?;
     let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;
-    let m = metrics(&run);
     let preset = Preset::from(a.plant.preset).name();
-    if let Some(path) = &a.csv {
-        io::write_atomically(path, |w| io::write_trace_csv(&run, w))
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-    }
-    if let Some(path) = &a.plot {
-        let title = format!(
-            "{} slew, {} preset, {} modes",
-            law.name(),
-            preset,
-            a.plant.modes
-        );
-        io::plot_atomically(path, |tmp| plot::plot(&run, &title, tmp))?;
-    }
-    let gains = gains_json(&law);
-    let reason = run.breakdown.as_ref().map(|(_, why)| why.to_string());
-    if a.json {
-        let mut v = serde_json::to_value(&m).map_err(|e| e.to_string())?;
-        let o = v.as_object_mut().ok_or("metrics are not an object")?;
-        o.insert("preset".into(), json!(preset));
-        o.insert("modes".into(), json!(a.plant.modes));
-        o.insert("controller".into(), json!(law.name()));
-        o.insert("gains".into(), gains);
-        o.insert("breakdown_reason".into(), json!(reason));
-        o.insert("faults".into(), json!(run.faults));
-        println!("{v}");
+    let title = format!(
+        "{} slew, {} preset, {} modes",
+        law.name(),
+        preset,
+        a.plant.modes
+    );
+    a.run.write(&run, &title)?;
+    if a.run.json {
+        println!("{}", json!(run_json(&run, &law, preset, a.plant.modes)?));
     } else {
-        print_summary(&m, &run, &law, preset, a.plant.modes, reason.as_deref());
+        print_summary(&run, &law, preset, a.plant.modes);
     }
     Ok(())
 }
@@ -434,14 +464,10 @@ fn gains_json(law: &Law) -> serde_json::Value {
     }
 }
 
-fn print_summary(
-    m: &Metrics,
-    run: &SimResult,
-    law: &Law,
-    preset: &str,
-    modes: u8,
-    reason: Option<&str>,
-) {
+fn print_summary(run: &SimResult, law: &Law, preset: &str, modes: u8) {
+    let m = &metrics(run);
+    let reason = run.breakdown.as_ref().map(|(_, why)| why.to_string());
+    let reason = reason.as_deref();
     println!(
         "{} slew on the {preset} preset, {modes} mode(s), gains {}",
         law.name(),

@@ -1,14 +1,14 @@
 //! `beam pil`: the paper's slew with the PIL firmware under QEMU as the drive, and
 //! `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
 
-use crate::{ControllerArg, PlantArgs, Preset};
+use crate::{ControllerArg, PlantArgs, Preset, RunArgs};
 use clap::Args;
 use firmware::moves::ControllerKind;
+use host_tests::io;
 use host_tests::pil::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
 use host_tests::plant::Plant;
 use host_tests::sim::SimOptions;
 use host_tests::telemetry::{self, Decoded};
-use host_tests::{io, plot};
 use model_core::{Beam, ModalModel};
 use serde_json::json;
 use std::path::PathBuf;
@@ -22,12 +22,8 @@ pub struct PilArgs {
     /// Control law the drive runs (gains from the compiled table; PD baseline gains).
     #[arg(long, value_enum, default_value = "smc")]
     controller: ControllerArg,
-    /// Simulated time after the move starts, s.
-    #[arg(long, default_value_t = 2.0)]
-    duration: f64,
-    /// Seed of the sensor noise.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    #[command(flatten)]
+    run: RunArgs,
     /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo fw`].
     #[arg(long, value_name = "ELF")]
     elf: Option<PathBuf>,
@@ -46,15 +42,6 @@ pub struct PilArgs {
     /// Write the drive's telemetry for the move as CSV (the `beam calibrate` format).
     #[arg(long, value_name = "FILE")]
     telemetry: Option<PathBuf>,
-    /// Write the trace as CSV.
-    #[arg(long, value_name = "FILE")]
-    csv: Option<PathBuf>,
-    /// Write the paper's figures 2-5 (.png or .svg).
-    #[arg(long, value_name = "FILE")]
-    plot: Option<PathBuf>,
-    /// Print one JSON object.
-    #[arg(long)]
-    json: bool,
 }
 
 fn kind(c: ControllerArg) -> ControllerKind {
@@ -66,17 +53,9 @@ fn kind(c: ControllerArg) -> ControllerKind {
 }
 
 pub fn run(a: &PilArgs) -> Result<(), String> {
-    if !(a.duration.is_finite() && a.duration > 0.0 && a.duration <= 3600.0) {
-        return Err(format!(
-            "--duration {} must be a number of seconds in (0, 3600]",
-            a.duration
-        ));
-    }
+    let opts = a.run.options()?;
     let beam = crate::beam(&a.plant)?;
     let payload_kg = beam.params().tip_mass_kg as f32;
-    if let Some(path) = &a.plot {
-        plot::check_extension(path)?;
-    }
     let plugin = match (&a.insn_plugin, a.no_insn_count) {
         (_, true) => None,
         (Some(p), false) => Some(p.clone()),
@@ -94,14 +73,6 @@ pub fn run(a: &PilArgs) -> Result<(), String> {
         .controller
         .law(payload_kg)
         .ok_or_else(|| format!("the gain table has no `{}` rows", cfg.controller.name()))?;
-    let opts = SimOptions {
-        duration_s: a.duration,
-        sensors: host_tests::sensors::SensorConfig {
-            seed: a.seed,
-            ..Default::default()
-        },
-        ..SimOptions::default()
-    };
     let out = with_modes!(a.plant.modes, pil_n(&beam, &cfg, &opts))?;
     if let Some(path) = &a.telemetry {
         let rows = telemetry::first_move(&out.telemetry.rows)
@@ -111,32 +82,17 @@ pub fn run(a: &PilArgs) -> Result<(), String> {
         })
         .map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    if let Some(path) = &a.csv {
-        io::write_atomically(path, |w| io::write_trace_csv(&out.run, w))
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-    }
     let preset = Preset::from(a.plant.preset).name();
-    if let Some(path) = &a.plot {
-        let title = format!(
-            "{} slew (PIL), {} preset, {} modes",
-            law.name(),
-            preset,
-            a.plant.modes
-        );
-        io::plot_atomically(path, |tmp| plot::plot(&out.run, &title, tmp))?;
-    }
-    let m = host_tests::metrics::metrics(&out.run);
-    let reason = out.run.breakdown.as_ref().map(|(_, why)| why.to_string());
+    let title = format!(
+        "{} slew (PIL), {} preset, {} modes",
+        law.name(),
+        preset,
+        a.plant.modes
+    );
+    a.run.write(&out.run, &title)?;
     let insns = out.insns;
-    if a.json {
-        let mut v = serde_json::to_value(&m).map_err(|e| e.to_string())?;
-        let o = v.as_object_mut().ok_or("metrics are not an object")?;
-        o.insert("preset".into(), json!(preset));
-        o.insert("modes".into(), json!(a.plant.modes));
-        o.insert("controller".into(), json!(law.name()));
-        o.insert("gains".into(), crate::gains_json(&law));
-        o.insert("breakdown_reason".into(), json!(reason));
-        o.insert("faults".into(), json!(out.run.faults));
+    if a.run.json {
+        let mut o = crate::run_json(&out.run, &law, preset, a.plant.modes)?;
         o.insert("pil_ticks".into(), json!(out.ticks));
         o.insert("pil_max_torque_diff".into(), json!(out.max_torque_diff));
         o.insert("pil_max_ulps".into(), json!(out.max_ulps));
@@ -144,9 +100,9 @@ pub fn run(a: &PilArgs) -> Result<(), String> {
         o.insert("insns_min".into(), json!(insns.map(|i| i.min)));
         o.insert("insns_mean".into(), json!(insns.map(|i| i.mean)));
         o.insert("insns_max".into(), json!(insns.map(|i| i.max)));
-        println!("{v}");
+        println!("{}", json!(o));
     } else {
-        crate::print_summary(&m, &out.run, &law, preset, a.plant.modes, reason.as_deref());
+        crate::print_summary(&out.run, &law, preset, a.plant.modes);
         println!(
             "  PIL: {} ticks on the emulated STM32F405; torques {} the host build's{}",
             out.ticks,
