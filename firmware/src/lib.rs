@@ -5,6 +5,7 @@
 //! runs [`drive::Drive::tick`] from the 1 kHz timer interrupt. Everything here is generic and
 //! `no_std`, and is tested on the host against `embedded-hal-mock`.
 #![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
 
 pub mod ads1220;
 pub mod amplifier;

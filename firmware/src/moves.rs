@@ -6,49 +6,26 @@
 
 use model_core::gains::{schedule, GAIN_TABLE};
 use model_core::{
-    Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, Law, ModalModel,
-    ModelError, ParamError, PdGains, Spline, SplineError,
+    Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind,
+    ModalModel, ModelError, ParamError, PdGains, Spline, SplineError,
 };
-use serde::{Deserialize, Serialize};
 
 /// Knots per move: the paper's moves are single quintic segments.
 pub const MOVE_KNOTS: usize = 2;
 /// The payload this drive carries, kg.
 pub const PAYLOAD_KG: f32 = 0.0;
-/// The controller the drive runs.
-pub const CONTROLLER: ControllerKind = ControllerKind::Smc;
+/// The control law the drive runs.
+pub const CONTROLLER: LawKind = LawKind::Smc;
 
-/// The control laws the drive can run: the SMCs with gains from the compiled table, PD with
-/// the baseline gains.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
-pub enum ControllerKind {
-    /// The PD baseline.
-    Pd,
-    /// The paper's SMC.
-    Smc,
-    /// The strain-augmented SMC.
-    SmcStrain,
+/// The law `kind` for `payload_kg`: the compiled table's rows interpolated on the payload, or
+/// for PD without rows, the baseline gains. `None` if the table has no row for an SMC.
+pub fn law_for(kind: LawKind, payload_kg: f32) -> Option<Law> {
+    schedule(GAIN_TABLE, kind, payload_kg).or(match kind {
+        LawKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
+        LawKind::Smc | LawKind::SmcStrain => None,
+    })
 }
 
-impl ControllerKind {
-    /// The name used in `gains.toml` and on the command line.
-    pub const fn name(self) -> &'static str {
-        match self {
-            ControllerKind::Pd => "pd",
-            ControllerKind::Smc => "smc",
-            ControllerKind::SmcStrain => "smc-strain",
-        }
-    }
-
-    /// The law for `payload_kg`: table rows interpolated on the payload, or PD's baseline.
-    pub fn law(self, payload_kg: f32) -> Option<Law> {
-        match self {
-            ControllerKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
-            kind => schedule(GAIN_TABLE, kind.name(), payload_kg),
-        }
-    }
-}
 /// The paper's slew: -90 deg to +90 deg in 0.35 s, and back.
 pub const SLEW_FROM_RAD: f32 = -core::f32::consts::FRAC_PI_2;
 /// End of the outward slew, rad.
@@ -81,7 +58,7 @@ pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
 
 /// The controller for the aluminium beam (3-mode model) carrying `payload_kg`, running `kind`.
 pub fn build_controller_for(
-    kind: ControllerKind,
+    kind: LawKind,
     payload_kg: f32,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let params = BeamParams {
@@ -90,7 +67,7 @@ pub fn build_controller_for(
     };
     let beam = Beam::try_build(params).map_err(BuildError::Beam)?;
     let model = ModalModel::<3>::try_build(&beam).map_err(BuildError::Model)?;
-    let gains = kind.law(payload_kg).ok_or(BuildError::NoGains)?;
+    let gains = law_for(kind, payload_kg).ok_or(BuildError::NoGains)?;
     let law = ControlLaw::try_build(gains, &model).map_err(BuildError::Gains)?;
     let settings = ControllerSettings {
         theta_home_rad: SLEW_FROM_RAD,

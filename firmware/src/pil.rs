@@ -14,7 +14,7 @@
 //! are checked by both ends on top of this. The same code runs in the PIL firmware and in
 //! `beam pil`, so both sides detect the same faults in the same way.
 
-pub use crate::moves::ControllerKind;
+pub use model_core::LawKind;
 use serde::{Deserialize, Serialize};
 
 /// Protocol version; bumped whenever a message changes.
@@ -66,7 +66,7 @@ pub enum HostMessage {
     /// Build the controller: which law, for which payload. First message of a run.
     Setup {
         /// The law.
-        controller: ControllerKind,
+        controller: LawKind,
         /// Payload, kg (schedules the gains and sets the model's tip mass).
         payload_kg: f32,
     },
@@ -321,7 +321,7 @@ mod tests {
             sensors(),
             HostMessage::Stop,
             HostMessage::Setup {
-                controller: ControllerKind::SmcStrain,
+                controller: LawKind::SmcStrain,
                 payload_kg: 0.025,
             },
         ] {

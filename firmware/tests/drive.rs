@@ -289,7 +289,7 @@ fn frames_from_an_independent_encoder_decode() {
         host,
         [
             HostMessage::Setup {
-                controller: firmware::moves::ControllerKind::Smc,
+                controller: model_core::LawKind::Smc,
                 payload_kg: 0.0
             },
             HostMessage::Sensors(SensorFrame {

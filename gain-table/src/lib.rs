@@ -7,68 +7,153 @@
 //! Rows are grouped by controller; within a controller they are sorted by payload with no
 //! duplicates, so the controller can interpolate between neighbours at run time.
 
+pub use beam_kinds::{LawKind, Preset, Switching};
 use serde::{Deserialize, Serialize};
-use std::fmt;
 use std::path::Path;
 
 /// Largest payload a row may describe, kg (the beam carries grams, not kilograms).
 pub const MAX_PAYLOAD_KG: f64 = 1.0;
 
-/// Controllers a row may be for.
-pub const CONTROLLERS: [&str; 3] = ["pd", "smc", "smc-strain"];
-
-/// Switching functions a row may use.
-pub const SWITCHINGS: [&str; 3] = ["tanh", "sat", "sign"];
-
-/// Presets a row may have been found for.
-pub const PRESETS: [&str; 2] = ["table1", "aluminium"];
-
-/// One gain set, as written in the file.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// One gain set, as written in the file: what every row has, and the gains of its law.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Row {
-    /// Controller variant: `pd`, `smc` or `smc-strain`.
-    pub controller: String,
     /// The payload (tip mass) this row is for, kg.
     pub payload_kg: f64,
-    /// PD proportional gain, N m/rad (pd only).
-    #[serde(default)]
-    pub kp: f64,
-    /// PD derivative gain, N m s/rad (pd only).
-    #[serde(default)]
-    pub kd: f64,
-    /// SMC surface slope W, 1/s.
-    #[serde(default)]
-    pub w: f64,
-    /// SMC switching gain A, rad/s^2.
-    #[serde(default)]
-    pub a: f64,
-    /// SMC boundary-layer slope beta, s/rad.
-    #[serde(default)]
-    pub beta: f64,
-    /// Strain blend c, rad per unit strain (smc-strain only).
-    #[serde(default)]
-    pub c: f64,
-    /// Switching function: `tanh`, `sat` or `sign`.
-    #[serde(default = "default_switching")]
-    pub switching: String,
-    /// smc-strain: keep the model terms.
-    #[serde(default)]
-    pub model_terms: bool,
+    /// The law (the row's `controller` key) and its gains.
+    pub gains: Gains,
     /// The preset the gains were found for.
-    pub preset: String,
+    pub preset: Preset,
     /// Flexible modes of the model they were found with.
     pub modes: u32,
     /// The cost J they achieved (for the record).
     pub cost_j: f64,
 }
 
-fn default_switching() -> String {
-    "tanh".to_string()
+/// The keys every row has besides `controller` and the gains.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Common {
+    payload_kg: f64,
+    preset: Preset,
+    modes: u32,
+    cost_j: f64,
+}
+
+/// A law's gains as the table stores them (f64; the build rounds them to the f32 the drive
+/// runs). Tagged in the file by the row's `controller` key; a law has exactly the keys it
+/// uses, so `c` on an `smc` row is an unknown field.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Gains {
+    /// `controller = "pd"`.
+    Pd(PdRow),
+    /// `controller = "smc"`.
+    Smc(SmcRow),
+    /// `controller = "smc-strain"`.
+    SmcStrain(StrainSmcRow),
+}
+
+/// PD gains.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PdRow {
+    /// Proportional gain, N m/rad.
+    pub kp: f64,
+    /// Derivative gain, N m s/rad.
+    pub kd: f64,
+}
+
+/// The paper's SMC gains.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SmcRow {
+    /// Surface slope W, 1/s.
+    pub w: f64,
+    /// Switching gain A, rad/s^2.
+    pub a: f64,
+    /// Boundary-layer slope beta, s/rad.
+    pub beta: f64,
+    /// Switching function (default tanh).
+    #[serde(default)]
+    pub switching: Switching,
+}
+
+/// The strain-augmented SMC's gains.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StrainSmcRow {
+    /// Surface slope W, 1/s.
+    pub w: f64,
+    /// Switching gain A, rad/s^2.
+    pub a: f64,
+    /// Boundary-layer slope beta, s/rad.
+    pub beta: f64,
+    /// Strain blend c, rad per unit strain.
+    pub c: f64,
+    /// Switching function (default tanh).
+    #[serde(default)]
+    pub switching: Switching,
+    /// Keep the model terms.
+    #[serde(default)]
+    pub model_terms: bool,
+}
+
+impl Gains {
+    /// The law these gains are for.
+    pub fn kind(&self) -> LawKind {
+        match self {
+            Gains::Pd(_) => LawKind::Pd,
+            Gains::Smc(_) => LawKind::Smc,
+            Gains::SmcStrain(_) => LawKind::SmcStrain,
+        }
+    }
+
+    /// The settings that cannot be interpolated between payloads, so all rows of a law must
+    /// agree on them: the switching function and the model-terms flag.
+    fn discrete(&self) -> (Option<Switching>, bool) {
+        match self {
+            Gains::Pd(_) => (None, false),
+            Gains::Smc(g) => (Some(g.switching), false),
+            Gains::SmcStrain(g) => (Some(g.switching), g.model_terms),
+        }
+    }
+
+    /// The gains' numbers, named as in the file, in file order.
+    pub fn numbers(&self) -> Vec<(&'static str, f64)> {
+        match self {
+            Gains::Pd(g) => vec![("kp", g.kp), ("kd", g.kd)],
+            Gains::Smc(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta)],
+            Gains::SmcStrain(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta), ("c", g.c)],
+        }
+    }
+
+    /// The gains read from a row's keys (without `controller` and the common keys).
+    fn from_table(kind: LawKind, t: toml::Table) -> Result<Self, toml::de::Error> {
+        let v = toml::Value::Table(t);
+        Ok(match kind {
+            LawKind::Pd => Gains::Pd(v.try_into()?),
+            LawKind::Smc => Gains::Smc(v.try_into()?),
+            LawKind::SmcStrain => Gains::SmcStrain(v.try_into()?),
+        })
+    }
+
+    /// The gains' keys.
+    fn to_table(&self) -> toml::Table {
+        let v = match self {
+            Gains::Pd(g) => toml::Value::try_from(g),
+            Gains::Smc(g) => toml::Value::try_from(g),
+            Gains::SmcStrain(g) => toml::Value::try_from(g),
+        };
+        match v {
+            Ok(toml::Value::Table(t)) => t,
+            // Structs of numbers, names and flags always serialise to a table.
+            _ => toml::Table::new(),
+        }
+    }
 }
 
 /// A rejected table: where and why.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}{}{}: {message}", row.map(|r| format!(": row {r}")).unwrap_or_default(), field.map(|f| format!(": field `{f}`")).unwrap_or_default())]
 pub struct TableError {
     /// The file, as given.
     pub file: String,
@@ -79,21 +164,6 @@ pub struct TableError {
     /// What is wrong.
     pub message: String,
 }
-
-impl fmt::Display for TableError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file)?;
-        if let Some(r) = self.row {
-            write!(f, ": row {r}")?;
-        }
-        if let Some(field) = self.field {
-            write!(f, ": field `{field}`")?;
-        }
-        write!(f, ": {}", self.message)
-    }
-}
-
-impl std::error::Error for TableError {}
 
 /// Parses and validates the table text; `file` names it in errors.
 pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
@@ -134,9 +204,7 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
             )
         })?;
         for (i, v) in list.iter().enumerate() {
-            let row = Row::deserialize(v.clone())
-                .map_err(|e| err(Some(i + 1), None, e.message().trim().to_string()))?;
-            rows.push(row);
+            rows.push(row_from_value(v).map_err(|(field, m)| err(Some(i + 1), field, m))?);
         }
     }
     if rows.is_empty() {
@@ -147,16 +215,13 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
     }
     // Within each controller: strictly increasing payload.
     for (i, r) in rows.iter().enumerate() {
-        if let Some(prev) = rows[..i]
-            .iter()
-            .rev()
-            .find(|p| p.controller == r.controller)
-        {
+        let kind = r.gains.kind();
+        if let Some(prev) = rows[..i].iter().rev().find(|p| p.gains.kind() == kind) {
             if r.payload_kg == prev.payload_kg {
                 return Err(err(
                     Some(i + 1),
                     Some("payload_kg"),
-                    format!("duplicates an earlier {} row", r.controller),
+                    format!("duplicates an earlier {kind} row"),
                 ));
             }
             if r.payload_kg < prev.payload_kg {
@@ -164,14 +229,15 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
                     Some(i + 1),
                     Some("payload_kg"),
                     format!(
-                        "rows of {} must be sorted by payload ({} after {})",
-                        r.controller, r.payload_kg, prev.payload_kg
+                        "rows of {kind} must be sorted by payload ({} after {})",
+                        r.payload_kg, prev.payload_kg
                     ),
                 ));
             }
+            let ((sw, mt), (prev_sw, prev_mt)) = (r.gains.discrete(), prev.gains.discrete());
             for (field, same) in [
-                ("switching", r.switching == prev.switching),
-                ("model_terms", r.model_terms == prev.model_terms),
+                ("switching", sw == prev_sw),
+                ("model_terms", mt == prev_mt),
                 ("preset", r.preset == prev.preset),
                 ("modes", r.modes == prev.modes),
             ] {
@@ -188,39 +254,52 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
     Ok(rows)
 }
 
-/// Checks one row's fields; `Err((field, why))`.
+/// One `[[row]]` table: its `controller` names the law, whose gains are the keys besides the
+/// common ones. `Err((field, why))`.
+fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)> {
+    let mut table = v
+        .as_table()
+        .cloned()
+        .ok_or((None, "a row must be a table".to_string()))?;
+    let kind = match table.remove("controller") {
+        None => return Err((None, "missing field `controller`".into())),
+        Some(toml::Value::String(name)) => name
+            .parse::<LawKind>()
+            .map_err(|e| (Some("controller"), format!("`{name}`: {e}")))?,
+        Some(other) => {
+            return Err((
+                Some("controller"),
+                format!("expected a string, found {}", other.type_str()),
+            ))
+        }
+    };
+    const COMMON: [&str; 4] = ["payload_kg", "preset", "modes", "cost_j"];
+    let mut common = toml::Table::new();
+    for key in COMMON {
+        if let Some(v) = table.remove(key) {
+            common.insert(key.to_string(), v);
+        }
+    }
+    let message = |e: toml::de::Error| (None, e.message().trim().to_string());
+    let c: Common = toml::Value::Table(common).try_into().map_err(message)?;
+    let gains = Gains::from_table(kind, table)
+        .map_err(|e| (None, format!("{kind}: {}", e.message().trim())))?;
+    Ok(Row {
+        payload_kg: c.payload_kg,
+        gains,
+        preset: c.preset,
+        modes: c.modes,
+        cost_j: c.cost_j,
+    })
+}
+
+/// Checks one row's values; `Err((field, why))`.
 fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
-    if !CONTROLLERS.contains(&r.controller.as_str()) {
-        return Err((
-            "controller",
-            format!("`{}` is not one of {CONTROLLERS:?}", r.controller),
-        ));
-    }
-    if !SWITCHINGS.contains(&r.switching.as_str()) {
-        return Err((
-            "switching",
-            format!("`{}` is not one of {SWITCHINGS:?}", r.switching),
-        ));
-    }
-    if !PRESETS.contains(&r.preset.as_str()) {
-        return Err((
-            "preset",
-            format!("`{}` is not one of {PRESETS:?}", r.preset),
-        ));
-    }
     if !(1..=4).contains(&r.modes) {
         return Err(("modes", format!("{} is not 1 to 4", r.modes)));
     }
-    let numbers = [
-        ("payload_kg", r.payload_kg),
-        ("kp", r.kp),
-        ("kd", r.kd),
-        ("w", r.w),
-        ("a", r.a),
-        ("beta", r.beta),
-        ("c", r.c),
-        ("cost_j", r.cost_j),
-    ];
+    let mut numbers = vec![("payload_kg", r.payload_kg), ("cost_j", r.cost_j)];
+    numbers.extend(r.gains.numbers());
     for (field, v) in numbers {
         if !v.is_finite() {
             return Err((field, format!("{v} is not finite")));
@@ -253,39 +332,21 @@ fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
             Err((field, format!("{v} must be >= 0")))
         }
     };
-    let unused = |field, v: f64| {
-        if v == 0.0 {
-            Ok(())
-        } else {
-            Err((
-                field,
-                format!("does not apply to {} (must be 0 or absent)", r.controller),
-            ))
-        }
+    let smc = |w, a, beta| {
+        positive("w", w)?;
+        non_negative("a", a)?;
+        positive("beta", beta)
     };
-    match r.controller.as_str() {
-        "pd" => {
-            non_negative("kp", r.kp)?;
-            non_negative("kd", r.kd)?;
-            for (f, v) in [("w", r.w), ("a", r.a), ("beta", r.beta), ("c", r.c)] {
-                unused(f, v)?;
-            }
+    match &r.gains {
+        Gains::Pd(g) => {
+            non_negative("kp", g.kp)?;
+            non_negative("kd", g.kd)
         }
-        other => {
-            positive("w", r.w)?;
-            non_negative("a", r.a)?;
-            positive("beta", r.beta)?;
-            unused("kp", r.kp)?;
-            unused("kd", r.kd)?;
-            if other == "smc" {
-                unused("c", r.c)?;
-                if r.model_terms {
-                    return Err(("model_terms", "applies to smc-strain only".into()));
-                }
-            }
-        }
+        Gains::Smc(g) => smc(g.w, g.a, g.beta),
+        // The blend's own limit (1 - c gamma >= 0.2) needs the model: model-core checks it
+        // when the law is built.
+        Gains::SmcStrain(g) => smc(g.w, g.a, g.beta),
     }
-    Ok(())
 }
 
 /// Reads and validates the table at `path`.
@@ -311,7 +372,14 @@ pub fn render(rows: &[Row]) -> String {
     for r in rows {
         out.push('\n');
         out.push_str("[[row]]\n");
-        out.push_str(&toml::to_string(r).unwrap_or_default());
+        let mut t = toml::Table::new();
+        t.insert("controller".into(), r.gains.kind().name().into());
+        t.insert("payload_kg".into(), r.payload_kg.into());
+        t.extend(r.gains.to_table());
+        t.insert("preset".into(), r.preset.name().into());
+        t.insert("modes".into(), i64::from(r.modes).into());
+        t.insert("cost_j".into(), r.cost_j.into());
+        out.push_str(&toml::to_string(&t).unwrap_or_default());
     }
     out
 }
@@ -319,48 +387,59 @@ pub fn render(rows: &[Row]) -> String {
 /// Inserts `row`, replacing the row of the same controller and payload if there is one,
 /// keeping each controller's rows sorted by payload.
 pub fn upsert(rows: &mut Vec<Row>, row: Row) {
+    let kind = row.gains.kind();
     if let Some(existing) = rows
         .iter_mut()
-        .find(|r| r.controller == row.controller && r.payload_kg == row.payload_kg)
+        .find(|r| r.gains.kind() == kind && r.payload_kg == row.payload_kg)
     {
         *existing = row;
         return;
     }
     let at = rows
         .iter()
-        .rposition(|r| r.controller == row.controller && r.payload_kg < row.payload_kg)
+        .rposition(|r| r.gains.kind() == kind && r.payload_kg < row.payload_kg)
         .map(|i| i + 1)
-        .or_else(|| rows.iter().position(|r| r.controller == row.controller))
+        .or_else(|| rows.iter().position(|r| r.gains.kind() == kind))
         .unwrap_or(rows.len());
     rows.insert(at, row);
 }
 
-/// Rust source defining `GAIN_TABLE: &[GainRow]` for model-core's `gains` module.
+/// Rust source defining `GAIN_TABLE: &[GainRow]`, included into model-core's `gains` module
+/// (paths are fully qualified from there, so the generated file needs no imports).
 pub fn generate_rust(rows: &[Row]) -> String {
     let mut out =
         String::from("// Generated by model-core/build.rs from the gain table. Do not edit.\n");
     out.push_str("/// The compiled gain table, grouped by controller, sorted by payload.\n");
-    out.push_str("pub const GAIN_TABLE: &[GainRow] = &[\n");
+    out.push_str("pub const GAIN_TABLE: &[crate::gains::GainRow] = &[\n");
+    let switching = |s: Switching| format!("::beam_kinds::Switching::{s:?}");
+    let smc = |w: f64, a: f64, beta: f64, s: Switching| {
+        format!(
+            "crate::law::SmcGains {{ w: {:?}, a: {:?}, beta: {:?}, switching: {} }}",
+            w as f32,
+            a as f32,
+            beta as f32,
+            switching(s)
+        )
+    };
     for r in rows {
-        let switching = match r.switching.as_str() {
-            "sat" => "Switching::Sat",
-            "sign" => "Switching::Sign",
-            _ => "Switching::Tanh",
-        };
-        let law = match r.controller.as_str() {
-            "pd" => format!("Law::Pd(PdGains {{ kp: {:?}, kd: {:?} }})", r.kp as f32, r.kd as f32),
-            kind => format!(
-                "Law::{}(SmcGains {{ w: {:?}, a: {:?}, beta: {:?}, c: {:?}, switching: {switching}, model_terms: {} }})",
-                if kind == "smc" { "Smc" } else { "SmcStrain" },
-                r.w as f32,
-                r.a as f32,
-                r.beta as f32,
-                r.c as f32,
-                r.model_terms
+        let law = match &r.gains {
+            Gains::Pd(g) => format!(
+                "crate::law::Law::Pd(crate::law::PdGains {{ kp: {:?}, kd: {:?} }})",
+                g.kp as f32, g.kd as f32
+            ),
+            Gains::Smc(g) => format!(
+                "crate::law::Law::Smc({})",
+                smc(g.w, g.a, g.beta, g.switching)
+            ),
+            Gains::SmcStrain(g) => format!(
+                "crate::law::Law::SmcStrain(crate::law::StrainSmcGains {{ smc: {}, c: {:?}, model_terms: {} }})",
+                smc(g.w, g.a, g.beta, g.switching),
+                g.c as f32,
+                g.model_terms
             ),
         };
         out.push_str(&format!(
-            "    GainRow {{ payload_kg: {:?}, law: {law} }},\n",
+            "    crate::gains::GainRow {{ payload_kg: {:?}, law: {law} }},\n",
             r.payload_kg as f32
         ));
     }
@@ -404,7 +483,8 @@ cost_j = 2.0
         let rows = parse(GOOD, "gains.toml").unwrap();
         assert_eq!(rows.len(), 2);
         assert_eq!(parse(&render(&rows), "x").unwrap(), rows);
-        assert!(generate_rust(&rows).contains("Law::Smc(SmcGains { w: 10.0, a: 1000.0"));
+        assert!(generate_rust(&rows)
+            .contains("crate::law::Law::Smc(crate::law::SmcGains { w: 10.0, a: 1000.0"));
     }
 
     #[test]
@@ -423,16 +503,19 @@ cost_j = 2.0
         );
         let e = bad("payload_kg = 0.0\n", "payload_kg = 0.07\n");
         assert_eq!((e.row, e.field), (Some(2), Some("payload_kg")));
+        let e = bad("controller = \"smc\"", "controller = \"lqr\"");
+        assert_eq!((e.row, e.field), (Some(1), Some("controller")));
         assert_eq!(
-            bad("controller = \"smc\"", "controller = \"lqr\"").field,
-            Some("controller")
+            e.message,
+            "`lqr`: unknown control law; expected one of pd, smc, smc-strain"
         );
         assert_eq!(bad("modes = 3", "modes = 7").field, Some("modes"));
-        assert_eq!(
-            bad("preset = \"aluminium\"", "preset = \"steel\"").field,
-            Some("preset")
-        );
-        assert_eq!(bad("a = 900.0", "a = 900.0\nkp = 3.0").field, Some("kp"));
+        let e = bad("preset = \"aluminium\"", "preset = \"steel\"");
+        assert!(e.message.contains("unknown variant `steel`"), "{e}");
+        // A gain the law does not have is not part of its row.
+        let e = bad("a = 900.0", "a = 900.0\nkp = 3.0");
+        assert_eq!(e.row, Some(2));
+        assert!(e.message.starts_with("smc: unknown field `kp`"), "{e}");
         // Syntax and schema errors still say where.
         let e = bad("w = 12.0", "w = \"fast\"");
         assert_eq!(e.row, Some(2));
@@ -454,10 +537,13 @@ cost_j = 2.0
             rows.iter().map(|r| r.payload_kg).collect::<Vec<_>>(),
             [0.0, 0.025, 0.05]
         );
-        mid.w = 99.0;
-        upsert(&mut rows, mid);
+        let Gains::Smc(g) = &mut mid.gains else {
+            panic!("the fixture's rows are smc")
+        };
+        g.w = 99.0;
+        upsert(&mut rows, mid.clone());
         assert_eq!(rows.len(), 3);
-        assert_eq!(rows[1].w, 99.0);
+        assert_eq!(rows[1], mid);
         assert!(parse(&render(&rows), "g").is_ok());
     }
 }

@@ -13,33 +13,11 @@
 
 use crate::metrics::{cost, metrics, CostSpec, Metrics};
 use crate::sim::{simulate, SimOptions, SimResult};
-use model_core::{Law, ModalModel, PdGains, SmcGains, Switching};
+use model_core::{Law, LawKind, ModalModel, PdGains, SmcGains, StrainSmcGains, Switching};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
-
-/// Which controller is designed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// PD: kp, kd.
-    Pd,
-    /// The paper's SMC: w, a, beta.
-    Smc,
-    /// Strain-augmented SMC: w, a, beta, c.
-    SmcStrain,
-}
-
-impl Kind {
-    /// The CLI name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Kind::Pd => "pd",
-            Kind::Smc => "smc",
-            Kind::SmcStrain => "smc-strain",
-        }
-    }
-}
 
 /// One searched gain: its name, bounds, and whether it is searched on a log scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,16 +60,16 @@ impl Param {
 
 /// Default search bounds for `kind` on `model` (c is kept where the blended output keeps
 /// its control direction, `1 - c gamma >= 0.25`).
-pub fn default_params<const N: usize>(kind: Kind, model: &ModalModel<N>) -> Vec<Param> {
+pub fn default_params<const N: usize>(kind: LawKind, model: &ModalModel<N>) -> Vec<Param> {
     let p = |name, lo, hi, log| Param { name, lo, hi, log };
     match kind {
-        Kind::Pd => vec![p("kp", 0.5, 200.0, true), p("kd", 0.01, 20.0, true)],
-        Kind::Smc => vec![
+        LawKind::Pd => vec![p("kp", 0.5, 200.0, true), p("kd", 0.01, 20.0, true)],
+        LawKind::Smc => vec![
             p("w", 1.0, 200.0, true),
             p("a", 10.0, 5000.0, true),
             p("beta", 0.003, 5.0, true),
         ],
-        Kind::SmcStrain => {
+        LawKind::SmcStrain => {
             let minv_h = model_core::linalg::mat_vec(&model.mqq_inv, &model.h);
             let gamma = model_core::linalg::dot(&model.root_strain_coef, &minv_h);
             // 1 - c gamma >= 0.25 on the side where c gamma > 0.
@@ -115,7 +93,7 @@ pub fn default_params<const N: usize>(kind: Kind, model: &ModalModel<N>) -> Vec<
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spec {
     /// The controller.
-    pub kind: Kind,
+    pub kind: LawKind,
     /// Searched gains and bounds.
     pub params: Vec<Param>,
     /// Switching function (SMC).
@@ -196,30 +174,23 @@ pub fn law_for(spec: &Spec, x: &[f64]) -> Law {
             .position(|p| p.name == name)
             .map_or(default, |i| x[i]) as f32
     };
+    let smc = || SmcGains {
+        w: get("w", 10.0),
+        a: get("a", 1000.0),
+        beta: get("beta", 0.1),
+        switching: spec.switching,
+    };
     match spec.kind {
-        Kind::Pd => Law::Pd(PdGains {
+        LawKind::Pd => Law::Pd(PdGains {
             kp: get("kp", 20.0),
             kd: get("kd", 1.0),
         }),
-        Kind::Smc | Kind::SmcStrain => {
-            let g = SmcGains {
-                w: get("w", 10.0),
-                a: get("a", 1000.0),
-                beta: get("beta", 0.1),
-                c: if spec.kind == Kind::SmcStrain {
-                    get("c", 0.0)
-                } else {
-                    0.0
-                },
-                switching: spec.switching,
-                model_terms: spec.kind == Kind::SmcStrain && spec.model_terms,
-            };
-            if spec.kind == Kind::Smc {
-                Law::Smc(g)
-            } else {
-                Law::SmcStrain(g)
-            }
-        }
+        LawKind::Smc => Law::Smc(smc()),
+        LawKind::SmcStrain => Law::SmcStrain(StrainSmcGains {
+            smc: smc(),
+            c: get("c", 0.0),
+            model_terms: spec.model_terms,
+        }),
     }
 }
 

@@ -12,10 +12,11 @@
 use crate::plant::Plant;
 use crate::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
 use crate::telemetry::{self, mode_of, Decoded};
-use firmware::moves::{build_controller_for, sequence, ControllerKind};
+use firmware::moves::{build_controller_for, sequence};
 use firmware::pil::{
     decode, encode, CommandFrame, DriveMessage, FrameReader, HostMessage, SensorFrame, MAX_FRAME,
 };
+use model_core::LawKind;
 use model_core::{ControllerSettings, FaultFlags, RawMeasurement, TorqueCommand};
 use std::io::{BufReader, Read, Write};
 use std::path::{Path, PathBuf};
@@ -34,7 +35,7 @@ pub struct PilConfig {
     /// Seconds before QEMU is killed.
     pub timeout_s: u32,
     /// The law the drive runs.
-    pub controller: ControllerKind,
+    pub controller: LawKind,
     /// Payload, kg (gain schedule and the drive's model).
     pub payload_kg: f32,
 }

@@ -10,8 +10,8 @@ use crate::plant::{Breakdown, Plant, State};
 use crate::sensors::{SensorConfig, Sensors};
 use model_core::controller::ConfigError;
 use model_core::{
-    ControlLaw, Controller, ControllerSettings, Law, ModalModel, Mode, RawMeasurement, SmcGains,
-    Spline, Switching, TorqueCommand,
+    ControlLaw, Controller, ControllerSettings, Law, LawKind, ModalModel, Mode, PdGains,
+    RawMeasurement, SmcGains, Spline, StrainSmcGains, Switching, TorqueCommand,
 };
 use std::fmt;
 
@@ -28,17 +28,28 @@ pub const HAND_PICKED_SMC: SmcGains = SmcGains {
     w: 10.0,
     a: 1000.0,
     beta: 0.1,
-    c: 0.0,
     switching: Switching::Tanh,
-    model_terms: false,
 };
 
 /// The strain-augmented SMC's hand-picked gains, chosen the same way.
-pub const HAND_PICKED_SMC_STRAIN: SmcGains = SmcGains {
-    a: 600.0,
+pub const HAND_PICKED_SMC_STRAIN: StrainSmcGains = StrainSmcGains {
+    smc: SmcGains {
+        a: 600.0,
+        ..HAND_PICKED_SMC
+    },
     c: 10.0,
-    ..HAND_PICKED_SMC
+    model_terms: false,
 };
+
+/// The law of `kind` with the gains used when neither the command line nor the gain table
+/// gives them: PD's baseline (Kp 20, Kd 1) and the hand-picked SMC gains.
+pub const fn hand_picked(kind: LawKind) -> Law {
+    match kind {
+        LawKind::Pd => Law::Pd(PdGains::BASELINE),
+        LawKind::Smc => Law::Smc(HAND_PICKED_SMC),
+        LawKind::SmcStrain => Law::SmcStrain(HAND_PICKED_SMC_STRAIN),
+    }
+}
 
 /// Knot capacity of the moves the host runs.
 pub const MOVE_CAPACITY: usize = 8;

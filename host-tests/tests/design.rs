@@ -2,10 +2,10 @@
 //! gain table (compiled into model-core) does what the table claims on the plant.
 
 use host_tests::metrics::{metrics, CostSpec};
-use host_tests::optimize::{default_params, evaluate, optimize, Kind, Spec};
+use host_tests::optimize::{default_params, evaluate, optimize, Spec};
 use host_tests::sim::{simulate, SimOptions, HAND_PICKED_SMC};
 use model_core::gains::{schedule, GAIN_TABLE};
-use model_core::{Beam, BeamParams, Law, ModalModel, PdGains, Switching};
+use model_core::{Beam, BeamParams, Law, LawKind, ModalModel, PdGains, Switching};
 
 fn model(payload_kg: f64) -> ModalModel<3> {
     let params = BeamParams {
@@ -17,8 +17,8 @@ fn model(payload_kg: f64) -> ModalModel<3> {
 
 fn spec(m: &ModalModel<3>, seed: u64) -> Spec {
     Spec {
-        kind: Kind::Smc,
-        params: default_params(Kind::Smc, m),
+        kind: LawKind::Smc,
+        params: default_params(LawKind::Smc, m),
         switching: Switching::Tanh,
         model_terms: false,
         cost: CostSpec::default(),
@@ -69,7 +69,7 @@ fn shipped_smc_gains_cut_residual_strain_tenfold_with_the_hub_on_target() {
     // The bar: RMS root strain over 0.4..0.6 s at most a tenth of PD (20, 1)'s, with
     // the hub within 1 deg of the target at 0.6 s, on the default preset at no payload.
     let m = model(0.0);
-    let smc = schedule(GAIN_TABLE, "smc", 0.0).expect("the table has smc rows");
+    let smc = schedule(GAIN_TABLE, LawKind::Smc, 0.0).expect("the table has smc rows");
     let opts = SimOptions::default();
     let r = metrics(&simulate(&m, smc, &opts).unwrap());
     let pd = metrics(&simulate(&m, Law::Pd(PdGains::BASELINE), &opts).unwrap());

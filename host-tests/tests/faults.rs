@@ -22,10 +22,10 @@ use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, FaultKind, Injection, SimOptions, SimResult};
 use model_core::controller::{STALL_TICKS, STALL_TORQUE_FRACTION};
 use model_core::gains::{schedule, GAIN_TABLE};
-use model_core::{Beam, BeamParams, FaultFlags, Law, ModalModel, Mode};
+use model_core::{Beam, BeamParams, FaultFlags, Law, LawKind, ModalModel, Mode};
 
 fn smc() -> Law {
-    schedule(GAIN_TABLE, "smc", 0.0).unwrap()
+    schedule(GAIN_TABLE, LawKind::Smc, 0.0).unwrap()
 }
 
 fn run(kind: FaultKind, at_s: f64, duration_s: f64) -> SimResult {

@@ -5,7 +5,7 @@
 //! built first (`cargo build -p firmware --bin pil --release --target thumbv7em-none-eabihf`,
 //! a no-op when it is up to date) so the test never runs a stale binary.
 
-use firmware::moves::{build_controller_for, ControllerKind};
+use firmware::moves::build_controller_for;
 use firmware::pil::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
 use host_tests::calibrate::read_log;
 use host_tests::metrics::metrics;
@@ -13,6 +13,7 @@ use host_tests::pil::{build_plugin, paths, run_pil, PilConfig, PilDrive};
 use host_tests::plant::Plant;
 use host_tests::sim::{run, SimOptions};
 use host_tests::telemetry::{first_move, write_csv};
+use model_core::LawKind;
 use model_core::{Beam, BeamParams, ModalModel, Mode};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -63,7 +64,7 @@ fn pil_elf() -> std::path::PathBuf {
     paths::pil_elf()
 }
 
-fn config(controller: ControllerKind, plugin: bool) -> PilConfig {
+fn config(controller: LawKind, plugin: bool) -> PilConfig {
     // The counting plugin comes from ../shared beside the checkout (CI has it); without it the
     // run goes on uncounted, and says so.
     let plugin = plugin.then(|| build_plugin(&paths::insn_tool(), &paths::plugin_dir()));
@@ -95,11 +96,11 @@ fn the_firmware_closes_the_loop_exactly_as_the_host_build_does() {
         return;
     }
     let opts = SimOptions::default();
-    let cfg = config(ControllerKind::Smc, true);
+    let cfg = config(LawKind::Smc, true);
     let pil = run_pil(Plant::new(model()), &cfg, &opts).unwrap();
     let host = run(
         Plant::new(model()),
-        build_controller_for(ControllerKind::Smc, 0.0).unwrap(),
+        build_controller_for(LawKind::Smc, 0.0).unwrap(),
         &opts,
     )
     .unwrap();
@@ -155,9 +156,7 @@ fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
     if !qemu_present() {
         return;
     }
-    let settings = *build_controller_for(ControllerKind::Smc, 0.0)
-        .unwrap()
-        .settings();
+    let settings = *build_controller_for(LawKind::Smc, 0.0).unwrap().settings();
     let frame = |seq| {
         HostMessage::Sensors(SensorFrame {
             seq,
@@ -166,7 +165,7 @@ fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
     };
 
     // Tick 0, then tick 2: the drive answers the first and refuses the second.
-    let mut drive = PilDrive::spawn(&config(ControllerKind::Pd, false), settings).unwrap();
+    let mut drive = PilDrive::spawn(&config(LawKind::Pd, false), settings).unwrap();
     drive.send(&frame(0)).unwrap();
     match drive.receive().unwrap() {
         DriveMessage::Command(c) => assert_eq!((c.seq, c.mode), (0, Mode::Idle as u8)),
@@ -183,7 +182,7 @@ fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
     assert_eq!(drive.wait().0.code(), Some(3));
 
     // One bit flipped in a frame's CRC.
-    let mut drive = PilDrive::spawn(&config(ControllerKind::Pd, false), settings).unwrap();
+    let mut drive = PilDrive::spawn(&config(LawKind::Pd, false), settings).unwrap();
     let mut buf = [0u8; firmware::pil::MAX_FRAME + 1];
     let mut bytes = encode(&frame(0), &mut buf).unwrap().to_vec();
     let n = bytes.len();
@@ -201,7 +200,7 @@ fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
     assert_eq!(drive.wait().0.code(), Some(3));
 
     // A frame cut short: the host closes the link mid-frame.
-    let mut drive = PilDrive::spawn(&config(ControllerKind::Pd, false), settings).unwrap();
+    let mut drive = PilDrive::spawn(&config(LawKind::Pd, false), settings).unwrap();
     drive.send_raw(&bytes[..3]).unwrap();
     let (status, _, _) = drive.wait();
     assert_eq!(status.code(), Some(3));
@@ -230,15 +229,10 @@ fn injected_faults_get_the_same_reaction_on_the_same_tick_through_the_pil() {
             fault: Some(Injection { kind, at_s }),
             ..SimOptions::default()
         };
-        let pil = run_pil(
-            Plant::new(model()),
-            &config(ControllerKind::Smc, false),
-            &opts,
-        )
-        .unwrap();
+        let pil = run_pil(Plant::new(model()), &config(LawKind::Smc, false), &opts).unwrap();
         let host = run(
             Plant::new(model()),
-            build_controller_for(ControllerKind::Smc, 0.0).unwrap(),
+            build_controller_for(LawKind::Smc, 0.0).unwrap(),
             &opts,
         )
         .unwrap();

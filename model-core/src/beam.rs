@@ -9,41 +9,7 @@ use core::fmt;
 /// Young's modulus of aluminium used by the `aluminium` preset, Pa.
 pub const ALUMINIUM_E_PA: f64 = 69.0e9;
 
-/// The named parameter sets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Preset {
-    /// The paper's Table 1 as printed (EI = 0.176 N m^2, ten times too soft for the strip).
-    Table1,
-    /// Table 1's geometry with EI = E w t^3 / 12 for aluminium, E = 69 GPa.
-    Aluminium,
-}
-
-impl Preset {
-    /// All presets, for listings.
-    pub const ALL: [Preset; 2] = [Preset::Table1, Preset::Aluminium];
-
-    /// The lower-case name used on the command line and in files.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Preset::Table1 => "table1",
-            Preset::Aluminium => "aluminium",
-        }
-    }
-
-    /// Looks a preset up by its [`name`](Self::name).
-    pub fn from_name(name: &str) -> Option<Preset> {
-        Preset::ALL.into_iter().find(|p| p.name() == name)
-    }
-
-    /// The parameters of this preset.
-    pub fn params(self) -> BeamParams {
-        match self {
-            Preset::Table1 => BeamParams::table1(),
-            Preset::Aluminium => BeamParams::aluminium(),
-        }
-    }
-}
+pub use beam_kinds::Preset;
 
 /// Raw physical parameters (SI units). Validate with [`Beam::try_build`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +45,14 @@ pub struct BeamParams {
 }
 
 impl BeamParams {
+    /// The parameters of a named preset.
+    pub fn preset(preset: Preset) -> Self {
+        match preset {
+            Preset::Table1 => Self::table1(),
+            Preset::Aluminium => Self::aluminium(),
+        }
+    }
+
     /// The paper's Table 1 as printed.
     pub const fn table1() -> Self {
         Self {
@@ -239,9 +213,8 @@ mod tests {
 
     #[test]
     fn presets_validate_and_aluminium_is_ten_times_stiffer() {
-        for p in Preset::ALL {
-            assert!(Beam::try_build(p.params()).is_ok());
-            assert_eq!(Preset::from_name(p.name()), Some(p));
+        for &p in Preset::ALL {
+            assert!(Beam::try_build(BeamParams::preset(p)).is_ok());
         }
         // DESIGN: aluminium with Table 1's section gives EI about 1.71 N m^2.
         let ei = BeamParams::aluminium().ei_nm2;

@@ -549,7 +549,7 @@ impl<const K: usize> Controller<K> {
 mod tests {
     use super::*;
     use crate::beam::{Beam, BeamParams};
-    use crate::law::{Law, PdGains, SmcGains, Switching};
+    use crate::law::{Law, PdGains, SmcGains, StrainSmcGains, Switching};
     use crate::modal::ModalModel;
     use proptest::prelude::*;
 
@@ -566,14 +566,13 @@ mod tests {
         .unwrap()
     }
 
-    const SMC: Law = Law::Smc(SmcGains {
+    const SMC_GAINS: SmcGains = SmcGains {
         w: 30.0,
         a: 20.0,
         beta: 0.3,
-        c: 0.0,
         switching: Switching::Tanh,
-        model_terms: false,
-    });
+    };
+    const SMC: Law = Law::Smc(SMC_GAINS);
 
     /// The raw counter of a hub exactly on the move's reference `ticks` ticks in.
     fn on_reference(c: &Controller<4>, ticks: u32) -> RawMeasurement {
@@ -838,7 +837,7 @@ mod tests {
             let laws = [
                 Law::Pd(PdGains::BASELINE),
                 SMC,
-                Law::SmcStrain(SmcGains { c: -50.0, model_terms: true, ..match SMC { Law::Smc(g) => g, _ => unreachable!() } }),
+                Law::SmcStrain(StrainSmcGains { smc: SMC_GAINS, c: -50.0, model_terms: true }),
                 Law::Pd(PdGains { kp: 3e38, kd: 3e38 }),
             ];
             let mut c = controller(laws[law_pick]);

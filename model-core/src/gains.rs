@@ -6,7 +6,7 @@
 //! drive is configured, not in the tick: the result is validated by `ControlLaw::try_build`
 //! and swapped in whole.
 
-use crate::law::{Law, PdGains, SmcGains, Switching};
+use crate::law::{Law, LawKind, PdGains, SmcGains, StrainSmcGains};
 
 /// One row of the table: the gains for one controller at one payload.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,11 +19,10 @@ pub struct GainRow {
 
 include!(concat!(env!("OUT_DIR"), "/gain_table.rs"));
 
-/// The gains for controller `kind` (`"pd"`, `"smc"`, `"smc-strain"`) at `payload_kg`, from
-/// `table`; `None` if the table has no row for that controller. A NaN payload takes the
-/// lightest row.
-pub fn schedule(table: &[GainRow], kind: &str, payload_kg: f32) -> Option<Law> {
-    let mut rows = table.iter().filter(|r| r.law.name() == kind);
+/// The gains for law `kind` at `payload_kg`, from `table`; `None` if the table has no row for
+/// that law. A NaN payload takes the lightest row.
+pub fn schedule(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law> {
+    let mut rows = table.iter().filter(|r| r.law.kind() == kind);
     let first = rows.next()?;
     if !(payload_kg > first.payload_kg) {
         return Some(first.law);
@@ -45,9 +44,7 @@ fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
         w: mix(a.w, b.w),
         a: mix(a.a, b.a),
         beta: mix(a.beta, b.beta),
-        c: mix(a.c, b.c),
         switching: a.switching,
-        model_terms: a.model_terms,
     };
     match (lo, hi) {
         (Law::Pd(a), Law::Pd(b)) => Law::Pd(PdGains {
@@ -55,26 +52,27 @@ fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
             kd: mix(a.kd, b.kd),
         }),
         (Law::Smc(a), Law::Smc(b)) => Law::Smc(smc(a, b)),
-        (Law::SmcStrain(a), Law::SmcStrain(b)) => Law::SmcStrain(smc(a, b)),
+        (Law::SmcStrain(a), Law::SmcStrain(b)) => Law::SmcStrain(StrainSmcGains {
+            smc: smc(&a.smc, &b.smc),
+            c: mix(a.c, b.c),
+            model_terms: a.model_terms,
+        }),
         // Rows are filtered by kind, so kinds always match.
         _ => *lo,
     }
 }
 
-/// Keeps `Switching` in scope for the generated table.
-const _: Switching = Switching::Tanh;
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::law::Switching;
 
     const G: SmcGains = SmcGains {
         w: 10.0,
         a: 100.0,
         beta: 0.1,
-        c: 0.0,
         switching: Switching::Tanh,
-        model_terms: false,
     };
     const TABLE: [GainRow; 3] = [
         GainRow {
@@ -97,7 +95,7 @@ mod tests {
 
     #[test]
     fn interpolates_between_rows_and_holds_the_ends() {
-        let mid = schedule(&TABLE, "smc", 0.025).unwrap();
+        let mid = schedule(&TABLE, LawKind::Smc, 0.025).unwrap();
         assert_eq!(
             mid,
             Law::Smc(SmcGains {
@@ -106,16 +104,19 @@ mod tests {
                 ..G
             })
         );
-        assert_eq!(schedule(&TABLE, "smc", -1.0).unwrap(), TABLE[0].law);
-        assert_eq!(schedule(&TABLE, "smc", 9.0).unwrap(), TABLE[1].law);
-        assert_eq!(schedule(&TABLE, "smc", f32::NAN).unwrap(), TABLE[0].law);
-        assert_eq!(schedule(&TABLE, "pd", 0.3).unwrap(), TABLE[2].law);
-        assert_eq!(schedule(&TABLE, "smc-strain", 0.0), None);
+        assert_eq!(schedule(&TABLE, LawKind::Smc, -1.0).unwrap(), TABLE[0].law);
+        assert_eq!(schedule(&TABLE, LawKind::Smc, 9.0).unwrap(), TABLE[1].law);
+        assert_eq!(
+            schedule(&TABLE, LawKind::Smc, f32::NAN).unwrap(),
+            TABLE[0].law
+        );
+        assert_eq!(schedule(&TABLE, LawKind::Pd, 0.3).unwrap(), TABLE[2].law);
+        assert_eq!(schedule(&TABLE, LawKind::SmcStrain, 0.0), None);
     }
 
     #[test]
     fn the_compiled_table_has_smc_rows() {
-        assert!(GAIN_TABLE.iter().any(|r| r.law.name() == "smc"));
-        assert!(schedule(GAIN_TABLE, "smc", 0.0).is_some());
+        assert!(GAIN_TABLE.iter().any(|r| r.law.kind() == LawKind::Smc));
+        assert!(schedule(GAIN_TABLE, LawKind::Smc, 0.0).is_some());
     }
 }

@@ -9,47 +9,7 @@ use crate::beam::{ParamError, ParamErrorKind};
 use crate::modal::ModalModel;
 use crate::spline::RefPoint;
 
-/// The boundary-layer switching function f in `A f(beta s)`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Switching {
-    /// Smooth bounded sign, tanh (the default: no chatter).
-    #[default]
-    Tanh,
-    /// Linear boundary layer, clamp(x, -1, 1).
-    Sat,
-    /// Ideal relay, sign(x) (chatters; for comparison).
-    Sign,
-}
-
-impl Switching {
-    /// f(x).
-    #[inline]
-    pub fn apply(self, x: f32) -> f32 {
-        match self {
-            Switching::Tanh => libm::tanhf(x),
-            Switching::Sat => x.clamp(-1.0, 1.0),
-            Switching::Sign => {
-                if x > 0.0 {
-                    1.0
-                } else if x < 0.0 {
-                    -1.0
-                } else {
-                    0.0
-                }
-            }
-        }
-    }
-
-    /// The lower-case name used on the command line and in tables.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Switching::Tanh => "tanh",
-            Switching::Sat => "sat",
-            Switching::Sign => "sign",
-        }
-    }
-}
+pub use beam_kinds::{LawKind, Switching};
 
 /// PD gains: `tau = Kp (theta_r - theta) + Kd (theta_r' - theta')`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,7 +26,7 @@ impl PdGains {
     pub const BASELINE: PdGains = PdGains { kp: 20.0, kd: 1.0 };
 }
 
-/// Sliding-mode gains.
+/// Sliding-mode gains: `s = W e + e'`, `tau = J (theta_r'' - W e' - A f(beta s))`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SmcGains {
@@ -76,36 +36,48 @@ pub struct SmcGains {
     pub a: f32,
     /// Boundary-layer slope beta, s/rad.
     pub beta: f32,
-    /// Strain blend c, rad per unit strain: y = theta + c eps_root (strain variant only).
-    pub c: f32,
     /// Switching function.
     pub switching: Switching,
-    /// Keep the model terms C M^-1 (N + K) with q estimated from the root strain
-    /// (strain variant only).
+}
+
+/// The strain-augmented SMC's gains: the sliding-mode gains on y = theta + c eps_root.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StrainSmcGains {
+    /// The sliding-mode gains, applied to the blended output.
+    pub smc: SmcGains,
+    /// Strain blend c, rad per unit strain: y = theta + c eps_root.
+    pub c: f32,
+    /// Keep the model terms C M^-1 (N + K) with q estimated from the root strain.
     pub model_terms: bool,
 }
 
-/// Which law runs, with its gains.
+/// Which law runs, with its gains. Each variant carries only the gains its law uses; its
+/// [`LawKind`] is [`Law::kind`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Law {
     /// The PD baseline.
     Pd(PdGains),
     /// The paper's SMC: output theta, model terms zero, `[C M^-1 B]^-1 = Jeff`.
-    /// `c` and `model_terms` are ignored.
     Smc(SmcGains),
     /// The strain-augmented SMC on y = theta + c eps_root.
-    SmcStrain(SmcGains),
+    SmcStrain(StrainSmcGains),
 }
 
 impl Law {
-    /// The controller's name on the command line: `pd`, `smc`, `smc-strain`.
-    pub const fn name(&self) -> &'static str {
+    /// Which law this is.
+    pub const fn kind(&self) -> LawKind {
         match self {
-            Law::Pd(_) => "pd",
-            Law::Smc(_) => "smc",
-            Law::SmcStrain(_) => "smc-strain",
+            Law::Pd(_) => LawKind::Pd,
+            Law::Smc(_) => LawKind::Smc,
+            Law::SmcStrain(_) => LawKind::SmcStrain,
         }
+    }
+
+    /// The law's name on the command line and in tables: its kind's name.
+    pub const fn name(&self) -> &'static str {
+        self.kind().name()
     }
 }
 
@@ -181,8 +153,8 @@ impl ControlLaw {
                     model: ModelTerms::default(),
                 })
             }
-            Law::Smc(g) | Law::SmcStrain(g) => {
-                for (field, v) in [("w", g.w), ("a", g.a), ("beta", g.beta), ("c", g.c)] {
+            Law::Smc(g) | Law::SmcStrain(StrainSmcGains { smc: g, .. }) => {
+                for (field, v) in [("w", g.w), ("a", g.a), ("beta", g.beta)] {
                     finite(field, v)?;
                 }
                 if !(g.w > 0.0) {
@@ -194,14 +166,17 @@ impl ControlLaw {
                 if !(g.beta > 0.0) {
                     return bad("beta", ParamErrorKind::NotPositive);
                 }
-                if let Law::Smc(_) = law {
-                    return Ok(Self {
+                match law {
+                    Law::SmcStrain(sg) => {
+                        finite("c", sg.c)?;
+                        Self::strain_law(law, sg, model)
+                    }
+                    _ => Ok(Self {
                         law,
                         inertia: jeff as f32,
                         model: ModelTerms::default(),
-                    });
+                    }),
                 }
-                Self::strain_law(law, g, model)
             }
         }
     }
@@ -213,7 +188,7 @@ impl ControlLaw {
     /// r_q = c e' Mqq^-1 - r_theta h' Mqq^-1.
     fn strain_law<const N: usize>(
         law: Law,
-        g: SmcGains,
+        g: StrainSmcGains,
         m: &ModalModel<N>,
     ) -> Result<Self, ParamError> {
         let c = g.c as f64;
@@ -268,9 +243,9 @@ impl ControlLaw {
                 let s = g.w * e + de;
                 self.inertia * (r.acc - g.w * de - g.a * g.switching.apply(g.beta * s))
             }
-            Law::SmcStrain(g) => {
-                let y = x.theta + g.c * x.strain;
-                let dy = x.omega + g.c * x.strain_rate;
+            Law::SmcStrain(StrainSmcGains { smc: g, c, .. }) => {
+                let y = x.theta + c * x.strain;
+                let dy = x.omega + c * x.strain_rate;
                 let (e, de) = (y - r.pos, dy - r.vel);
                 let s = g.w * e + de;
                 let mut v = r.acc - g.w * de - g.a * g.switching.apply(g.beta * s);
@@ -301,20 +276,15 @@ mod tests {
         w: 20.0,
         a: 5.0,
         beta: 0.5,
-        c: 0.0,
         switching: Switching::Tanh,
-        model_terms: false,
     };
 
-    #[test]
-    fn switching_functions_are_bounded_odd_signs() {
-        for f in [Switching::Tanh, Switching::Sat, Switching::Sign] {
-            assert_eq!(f.apply(0.0), 0.0);
-            assert_eq!(f.apply(1e6), 1.0);
-            assert_eq!(f.apply(-1e6), -1.0);
-            assert_eq!(f.apply(0.3), -f.apply(-0.3));
-        }
-        assert_eq!(Switching::Sat.apply(0.25), 0.25);
+    const fn strain(c: f32) -> Law {
+        Law::SmcStrain(StrainSmcGains {
+            smc: GAINS,
+            c,
+            model_terms: false,
+        })
     }
 
     #[test]
@@ -348,7 +318,7 @@ mod tests {
     fn strain_law_with_zero_blend_and_no_model_terms_is_the_paper_law() {
         let m = model();
         let paper = ControlLaw::try_build(Law::Smc(GAINS), &m).unwrap();
-        let strain = ControlLaw::try_build(Law::SmcStrain(GAINS), &m).unwrap();
+        let strain = ControlLaw::try_build(strain(0.0), &m).unwrap();
         let r = RefPoint {
             pos: 0.1,
             vel: -1.0,
@@ -382,13 +352,6 @@ mod tests {
             let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
             crate::linalg::dot(&m.root_strain_coef, &minv_h).signum() as f32
         };
-        assert_eq!(
-            err(Law::SmcStrain(SmcGains {
-                c: gamma_sign * 1e6,
-                ..GAINS
-            }))
-            .field,
-            "c"
-        );
+        assert_eq!(err(strain(gamma_sign * 1e6)).field, "c");
     }
 }

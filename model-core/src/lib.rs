@@ -15,6 +15,7 @@
 //!
 //! SI units inside; names carry units where they are not obvious (`torque_nm`).
 #![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
 
 pub mod beam;
 pub mod controller;
@@ -34,7 +35,7 @@ pub use controller::{
     CommandError, ConfigError, Controller, ControllerSettings, FaultFlags, Mode, RawMeasurement,
     TorqueCommand,
 };
-pub use law::{ControlLaw, Law, PdGains, SmcGains, Switching};
+pub use law::{ControlLaw, Law, LawKind, PdGains, SmcGains, StrainSmcGains, Switching};
 pub use measure::{AdcSpec, EncoderSpec};
 pub use modal::{ModalModel, ModelError};
 pub use spline::{RefPoint, Spline, SplineError};

@@ -325,8 +325,8 @@ mod tests {
 
     #[test]
     fn clamped_frequencies_match_euler_bernoulli() {
-        for preset in Preset::ALL {
-            let beam = Beam::try_build(preset.params()).unwrap();
+        for &preset in Preset::ALL {
+            let beam = Beam::try_build(BeamParams::preset(preset)).unwrap();
             let m = ModalModel::<4>::try_build(&beam).unwrap();
             for i in 0..4 {
                 let f = m.analytic_clamped_hz(i);

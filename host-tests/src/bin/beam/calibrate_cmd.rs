@@ -1,6 +1,6 @@
 //! `beam calibrate`: identify the model from a logged PD slew and write it as a parameter file.
 
-use crate::{PlantArgs, Preset};
+use crate::PlantArgs;
 use clap::Args;
 use host_tests::calibrate::{calibrate, read_log, StepReport, DEFAULT_EVALS};
 use model_core::{Beam, BeamParams, ModalModel};
@@ -56,7 +56,7 @@ pub fn run(a: &CalibrateArgs) -> Result<(), String> {
         "calibrated from {} ({} samples), guess: {} preset",
         a.log.display(),
         log.t.len(),
-        Preset::from(a.plant.preset).name()
+        a.plant.preset.name()
     );
     for s in &steps {
         print_step(s);

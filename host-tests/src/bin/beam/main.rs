@@ -22,11 +22,14 @@ mod optimize_cmd;
 mod pil_cmd;
 mod sweep_cmd;
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, SimOptions, SimResult};
 use host_tests::{io, plot};
-use model_core::{Beam, BeamParams, Law, ModalModel, PdGains, Preset, SmcGains, Switching};
+use model_core::{
+    Beam, BeamParams, Law, LawKind, ModalModel, PdGains, Preset, SmcGains, StrainSmcGains,
+    Switching,
+};
 
 use serde_json::json;
 use std::path::PathBuf;
@@ -61,28 +64,47 @@ enum Command {
     Telemetry(pil_cmd::TelemetryArgs),
 }
 
-#[derive(Clone, Copy, PartialEq, ValueEnum)]
-enum PresetArg {
-    /// The paper's Table 1 as printed (EI 0.176 N m^2; the slew breaks the model).
-    Table1,
-    /// Table 1's aluminium strip with EI = E w t^3 / 12 (about 1.71 N m^2).
-    Aluminium,
+/// One of beam-kinds' named enums, for clap: its names are the possible values, with help.
+trait Named: Copy + Send + Sync + std::str::FromStr + 'static {
+    const ALL: &'static [Self];
+    fn name(self) -> &'static str;
+    fn help(self) -> &'static str;
 }
 
-impl From<PresetArg> for Preset {
-    fn from(p: PresetArg) -> Preset {
-        match p {
-            PresetArg::Table1 => Preset::Table1,
-            PresetArg::Aluminium => Preset::Aluminium,
+macro_rules! named {
+    ($($t:ty),*) => {$(
+        impl Named for $t {
+            const ALL: &'static [Self] = <$t>::ALL;
+            fn name(self) -> &'static str {
+                <$t>::name(self)
+            }
+            fn help(self) -> &'static str {
+                <$t>::help(self)
+            }
         }
-    }
+    )*};
+}
+named!(LawKind, Switching, Preset);
+
+/// The value parser of a [`Named`] argument: `--controller smc-strain`, `--preset aluminium`.
+fn named<T: Named>() -> impl clap::builder::TypedValueParser<Value = T>
+where
+    T::Err: std::error::Error + Send + Sync + 'static,
+{
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        T::ALL
+            .iter()
+            .map(|v| PossibleValue::new(v.name()).help(v.help())),
+    )
+    .try_map(|s| s.parse::<T>())
 }
 
 #[derive(Args)]
 struct PlantArgs {
     /// Parameter preset.
-    #[arg(long, value_enum, default_value = "aluminium")]
-    preset: PresetArg,
+    #[arg(long, value_parser = named::<Preset>(), default_value = "aluminium")]
+    preset: Preset,
     /// Number of flexible modes, 1 to 4.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=4))]
     modes: u8,
@@ -108,43 +130,13 @@ struct ModelArgs {
     json: bool,
 }
 
-#[derive(Clone, Copy, PartialEq, ValueEnum)]
-enum ControllerArg {
-    /// PD baseline.
-    Pd,
-    /// The paper's SMC on the hub angle.
-    Smc,
-    /// SMC on theta + c * root strain.
-    SmcStrain,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum SwitchingArg {
-    /// Smooth, bounded sign.
-    Tanh,
-    /// Linear boundary layer.
-    Sat,
-    /// Ideal relay.
-    Sign,
-}
-
-impl From<SwitchingArg> for Switching {
-    fn from(s: SwitchingArg) -> Switching {
-        match s {
-            SwitchingArg::Tanh => Switching::Tanh,
-            SwitchingArg::Sat => Switching::Sat,
-            SwitchingArg::Sign => Switching::Sign,
-        }
-    }
-}
-
 #[derive(Args)]
 struct SimulateArgs {
     #[command(flatten)]
     plant: PlantArgs,
     /// Control law.
-    #[arg(long, value_enum, default_value = "smc")]
-    controller: ControllerArg,
+    #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
+    controller: LawKind,
     /// PD proportional gain, N m/rad.
     #[arg(long, allow_negative_numbers = true)]
     kp: Option<f32>,
@@ -164,8 +156,8 @@ struct SimulateArgs {
     #[arg(long, allow_negative_numbers = true)]
     c: Option<f32>,
     /// Switching function [default: the gain table's, else tanh].
-    #[arg(long, value_enum)]
-    switching: Option<SwitchingArg>,
+    #[arg(long, value_parser = named::<Switching>())]
+    switching: Option<Switching>,
     /// smc-strain: keep the model terms with q estimated from the root strain.
     #[arg(long)]
     model_terms: bool,
@@ -249,10 +241,6 @@ fn run_json(
     Ok(o)
 }
 
-/// Hand-picked defaults for the aluminium preset, 3 modes (README, "Choosing the gains").
-const DEFAULT_SMC: SmcGains = host_tests::sim::HAND_PICKED_SMC;
-const DEFAULT_SMC_STRAIN: SmcGains = host_tests::sim::HAND_PICKED_SMC_STRAIN;
-
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -299,7 +287,7 @@ fn main() -> ExitCode {
 fn beam(plant: &PlantArgs) -> Result<Beam, String> {
     let mut params: BeamParams = match &plant.params {
         Some(path) => host_tests::preset_file::load(path)?,
-        None => Preset::from(plant.preset).params(),
+        None => BeamParams::preset(plant.preset),
     };
     if let Some(m) = plant.tip_mass {
         params.tip_mass_kg = m;
@@ -315,7 +303,7 @@ fn run_model(a: &ModelArgs) -> Result<(), String> {
 fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> Result<(), String> {
     let m = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
     let p = beam.params();
-    let preset = Preset::from(a.plant.preset).name();
+    let preset = a.plant.preset.name();
     if a.json {
         let rows = |x: &[[f64; N]; N]| x.iter().map(|r| r.to_vec()).collect::<Vec<_>>();
         let v = json!({
@@ -346,79 +334,60 @@ fn law(a: &SimulateArgs) -> Result<Law, String> {
     let reject = |flag: &str| {
         Err(format!(
             "--{flag} does not apply to --controller {}",
-            controller_name(a.controller)
+            a.controller
         ))
     };
-    match a.controller {
-        ControllerArg::Pd => {
-            for (flag, set) in [
-                ("w", a.w.is_some()),
-                ("a", a.a.is_some()),
-                ("beta", a.beta.is_some()),
-                ("c", a.c.is_some()),
-            ] {
-                if set {
-                    return reject(flag);
-                }
-            }
-            let base = match table_law("pd", a.plant.tip_mass) {
-                Some(Law::Pd(g)) => g,
-                _ => PdGains::BASELINE,
-            };
-            Ok(Law::Pd(PdGains {
-                kp: a.kp.unwrap_or(base.kp),
-                kd: a.kd.unwrap_or(base.kd),
-            }))
-        }
-        ControllerArg::Smc | ControllerArg::SmcStrain => {
-            for (flag, set) in [("kp", a.kp.is_some()), ("kd", a.kd.is_some())] {
-                if set {
-                    return reject(flag);
-                }
-            }
-            let strain = a.controller == ControllerArg::SmcStrain;
-            if !strain && (a.c.is_some() || a.model_terms) {
-                return reject(if a.c.is_some() { "c" } else { "model-terms" });
-            }
-            // Gains not given on the command line come from the compiled gain table (at the
-            // configured payload), or the hand-picked defaults if it has no row for this law.
-            let base = match table_law(controller_name(a.controller), a.plant.tip_mass) {
-                Some(Law::Smc(g) | Law::SmcStrain(g)) => g,
-                _ if strain => DEFAULT_SMC_STRAIN,
-                _ => DEFAULT_SMC,
-            };
-            let g = SmcGains {
-                w: a.w.unwrap_or(base.w),
-                a: a.a.unwrap_or(base.a),
-                beta: a.beta.unwrap_or(base.beta),
-                c: if strain { a.c.unwrap_or(base.c) } else { 0.0 },
-                switching: a.switching.map_or(base.switching, Switching::from),
-                model_terms: strain && (a.model_terms || base.model_terms),
-            };
-            Ok(if strain {
-                Law::SmcStrain(g)
-            } else {
-                Law::Smc(g)
-            })
+    // Which flags each law takes; the compiler asks for a row when a law is added.
+    let takes: &[&str] = match a.controller {
+        LawKind::Pd => &["kp", "kd"],
+        LawKind::Smc => &["w", "a", "beta", "switching"],
+        LawKind::SmcStrain => &["w", "a", "beta", "switching", "c", "model-terms"],
+    };
+    for (flag, set) in [
+        ("kp", a.kp.is_some()),
+        ("kd", a.kd.is_some()),
+        ("w", a.w.is_some()),
+        ("a", a.a.is_some()),
+        ("beta", a.beta.is_some()),
+        ("c", a.c.is_some()),
+        ("switching", a.switching.is_some()),
+        ("model-terms", a.model_terms),
+    ] {
+        if set && !takes.contains(&flag) {
+            return reject(flag);
         }
     }
+    // Gains not given on the command line come from the compiled gain table (at the
+    // configured payload), or the hand-picked defaults if it has no row for this law.
+    let smc = |g: SmcGains| SmcGains {
+        w: a.w.unwrap_or(g.w),
+        a: a.a.unwrap_or(g.a),
+        beta: a.beta.unwrap_or(g.beta),
+        switching: a.switching.unwrap_or(g.switching),
+    };
+    Ok(match default_law(a.controller, a.plant.tip_mass) {
+        Law::Pd(g) => Law::Pd(PdGains {
+            kp: a.kp.unwrap_or(g.kp),
+            kd: a.kd.unwrap_or(g.kd),
+        }),
+        Law::Smc(g) => Law::Smc(smc(g)),
+        Law::SmcStrain(g) => Law::SmcStrain(StrainSmcGains {
+            smc: smc(g.smc),
+            c: a.c.unwrap_or(g.c),
+            model_terms: a.model_terms || g.model_terms,
+        }),
+    })
 }
 
-/// The compiled table's law for `kind` at the payload (0 kg if none given).
-fn table_law(kind: &str, payload_kg: Option<f64>) -> Option<Law> {
+/// The law `kind` at the payload (0 kg if none given) from the compiled table, or with the
+/// hand-picked gains if the table has no row for it.
+fn default_law(kind: LawKind, payload_kg: Option<f64>) -> Law {
     model_core::gains::schedule(
         model_core::gains::GAIN_TABLE,
         kind,
         payload_kg.unwrap_or(0.0) as f32,
     )
-}
-
-fn controller_name(c: ControllerArg) -> &'static str {
-    match c {
-        ControllerArg::Pd => "pd",
-        ControllerArg::Smc => "smc",
-        ControllerArg::SmcStrain => "smc-strain",
-    }
+    .unwrap_or(host_tests::sim::hand_picked(kind))
 }
 
 fn run_simulate(a: &SimulateArgs) -> Result<(), String> {
@@ -426,7 +395,7 @@ fn run_simulate(a: &SimulateArgs) -> Result<(), String> {
     let law = law(a)?;
     let opts = a.run.options()?;
     let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;
-    let preset = Preset::from(a.plant.preset).name();
+    let preset = a.plant.preset.name();
     let title = format!(
         "{} slew, {} preset, {} modes",
         law.name(),
@@ -457,9 +426,16 @@ fn gains_json(law: &Law) -> serde_json::Value {
     let f = host_tests::io::f32_decimal;
     match law {
         Law::Pd(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
-        Law::Smc(g) | Law::SmcStrain(g) => json!({
-            "w": f(g.w), "a": f(g.a), "beta": f(g.beta), "c": f(g.c), "switching": g.switching.name(),
-            "model_terms": g.model_terms,
+        Law::Smc(g) => json!({
+            "w": f(g.w), "a": f(g.a), "beta": f(g.beta), "switching": g.switching.name(),
+        }),
+        Law::SmcStrain(StrainSmcGains {
+            smc: g,
+            c,
+            model_terms,
+        }) => json!({
+            "w": f(g.w), "a": f(g.a), "beta": f(g.beta), "c": f(*c), "switching": g.switching.name(),
+            "model_terms": model_terms,
         }),
     }
 }

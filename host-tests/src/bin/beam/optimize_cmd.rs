@@ -1,11 +1,12 @@
 //! `beam optimize`: gain design on a preset, mode count and payload, reported against the PD
 //! baseline, optionally written into the gain table.
 
-use crate::{beam, controller_name, ControllerArg, PlantArgs, SwitchingArg};
+use crate::{beam, named, PlantArgs};
 use clap::{Args, ValueEnum};
+use gain_table::Gains;
 use host_tests::metrics::{CostSpec, Metrics};
-use host_tests::optimize::{default_params, full_metrics, optimize, Kind, Outcome, Spec};
-use model_core::{Beam, Law, ModalModel, PdGains, Preset};
+use host_tests::optimize::{default_params, full_metrics, optimize, Outcome, Spec};
+use model_core::{Beam, Law, LawKind, ModalModel, PdGains, StrainSmcGains, Switching};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -31,11 +32,11 @@ pub struct OptimizeArgs {
     #[command(flatten)]
     plant: PlantArgs,
     /// Controller to design.
-    #[arg(long, value_enum, default_value = "smc")]
-    controller: ControllerArg,
+    #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
+    controller: LawKind,
     /// Switching function (SMC).
-    #[arg(long, value_enum, default_value = "tanh")]
-    switching: SwitchingArg,
+    #[arg(long, value_parser = named::<Switching>(), default_value = "tanh")]
+    switching: Switching,
     /// smc-strain: keep the model terms.
     #[arg(long)]
     model_terms: bool,
@@ -139,12 +140,8 @@ pub fn run(a: &OptimizeArgs) -> Result<(), String> {
 
 fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> Result<(), String> {
     let model = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
-    let kind = match a.controller {
-        ControllerArg::Pd => Kind::Pd,
-        ControllerArg::Smc => Kind::Smc,
-        ControllerArg::SmcStrain => Kind::SmcStrain,
-    };
-    if a.model_terms && kind != Kind::SmcStrain {
+    let kind = a.controller;
+    if a.model_terms && kind != LawKind::SmcStrain {
         return Err("--model-terms applies to --controller smc-strain only".into());
     }
     let mut params = default_params(kind, &model);
@@ -171,7 +168,7 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> Result<(), String> {
     let spec = Spec {
         kind,
         params,
-        switching: a.switching.into(),
+        switching: a.switching,
         model_terms: a.model_terms,
         cost: CostSpec {
             w1: a.w1,
@@ -232,22 +229,20 @@ fn neighbour_gains(path: &std::path::Path, a: &OptimizeArgs, spec: &Spec) -> Opt
     let payload = a.plant.tip_mass.unwrap_or(0.0);
     let row = rows
         .iter()
-        .filter(|r| r.controller == controller_name(a.controller) && r.payload_kg != payload)
+        .filter(|r| r.gains.kind() == a.controller && r.payload_kg != payload)
         .min_by(|x, y| {
             (x.payload_kg - payload)
                 .abs()
                 .total_cmp(&(y.payload_kg - payload).abs())
         })?;
+    let numbers = row.gains.numbers();
     spec.params
         .iter()
-        .map(|p| match p.name {
-            "kp" => Some(row.kp),
-            "kd" => Some(row.kd),
-            "w" => Some(row.w),
-            "a" => Some(row.a),
-            "beta" => Some(row.beta),
-            "c" => Some(row.c),
-            _ => None,
+        .map(|p| {
+            numbers
+                .iter()
+                .find(|(name, _)| *name == p.name)
+                .map(|n| n.1)
         })
         .collect()
 }
@@ -269,34 +264,39 @@ fn write_row(
     } else {
         Vec::new()
     };
-    let (mut row, law) = (
-        gain_table::Row {
-            controller: controller_name(a.controller).to_string(),
-            payload_kg: a.plant.tip_mass.unwrap_or(0.0),
-            kp: 0.0,
-            kd: 0.0,
-            w: 0.0,
-            a: 0.0,
-            beta: 0.0,
-            c: 0.0,
-            switching: "tanh".into(),
-            model_terms: false,
-            preset: Preset::from(a.plant.preset).name().into(),
-            modes: modes as u32,
-            cost_j: o.best.cost,
-        },
-        o.best.law,
-    );
     // Store the f32 gains the drive will run, by their shortest decimals.
     let f = host_tests::io::f32_decimal;
-    match law {
-        Law::Pd(g) => (row.kp, row.kd) = (f(g.kp), f(g.kd)),
-        Law::Smc(g) | Law::SmcStrain(g) => {
-            (row.w, row.a, row.beta, row.c) = (f(g.w), f(g.a), f(g.beta), f(g.c));
-            row.switching = g.switching.name().into();
-            row.model_terms = g.model_terms;
-        }
-    }
+    let gains = match o.best.law {
+        Law::Pd(g) => Gains::Pd(gain_table::PdRow {
+            kp: f(g.kp),
+            kd: f(g.kd),
+        }),
+        Law::Smc(g) => Gains::Smc(gain_table::SmcRow {
+            w: f(g.w),
+            a: f(g.a),
+            beta: f(g.beta),
+            switching: g.switching,
+        }),
+        Law::SmcStrain(StrainSmcGains {
+            smc: g,
+            c,
+            model_terms,
+        }) => Gains::SmcStrain(gain_table::StrainSmcRow {
+            w: f(g.w),
+            a: f(g.a),
+            beta: f(g.beta),
+            c: f(c),
+            switching: g.switching,
+            model_terms,
+        }),
+    };
+    let row = gain_table::Row {
+        payload_kg: a.plant.tip_mass.unwrap_or(0.0),
+        gains,
+        preset: a.plant.preset,
+        modes: modes as u32,
+        cost_j: o.best.cost,
+    };
     gain_table::upsert(&mut rows, row);
     let text = gain_table::render(&rows);
     gain_table::parse(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
@@ -322,7 +322,7 @@ fn report(
     if a.json {
         let v = json!({
             "controller": spec.kind.name(),
-            "preset": Preset::from(a.plant.preset).name(),
+            "preset": a.plant.preset.name(),
             "modes": a.plant.modes,
             "payload_kg": a.plant.tip_mass.unwrap_or(0.0),
             "gains": gains,
@@ -337,7 +337,7 @@ fn report(
     println!(
         "{} on {} with {} mode(s), payload {} kg: {} closed-loop runs in {seconds:.1} s",
         spec.kind.name(),
-        Preset::from(a.plant.preset).name(),
+        a.plant.preset.name(),
         a.plant.modes,
         a.plant.tip_mass.unwrap_or(0.0),
         o.evaluations

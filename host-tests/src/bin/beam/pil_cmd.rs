@@ -1,15 +1,15 @@
 //! `beam pil`: the paper's slew with the PIL firmware under QEMU as the drive, and
 //! `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
 
-use crate::{ControllerArg, PlantArgs, Preset, RunArgs};
+use crate::{named, PlantArgs, RunArgs};
 use clap::Args;
-use firmware::moves::ControllerKind;
+use firmware::moves::law_for;
 use host_tests::io;
 use host_tests::pil::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
 use host_tests::plant::Plant;
 use host_tests::sim::SimOptions;
 use host_tests::telemetry::{self, Decoded};
-use model_core::{Beam, ModalModel};
+use model_core::{Beam, LawKind, ModalModel};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -20,8 +20,8 @@ pub struct PilArgs {
     #[command(flatten)]
     plant: PlantArgs,
     /// Control law the drive runs (gains from the compiled table; PD baseline gains).
-    #[arg(long, value_enum, default_value = "smc")]
-    controller: ControllerArg,
+    #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
+    controller: LawKind,
     #[command(flatten)]
     run: RunArgs,
     /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo fw`].
@@ -44,14 +44,6 @@ pub struct PilArgs {
     telemetry: Option<PathBuf>,
 }
 
-fn kind(c: ControllerArg) -> ControllerKind {
-    match c {
-        ControllerArg::Pd => ControllerKind::Pd,
-        ControllerArg::Smc => ControllerKind::Smc,
-        ControllerArg::SmcStrain => ControllerKind::SmcStrain,
-    }
-}
-
 pub fn run(a: &PilArgs) -> Result<(), String> {
     let opts = a.run.options()?;
     let beam = crate::beam(&a.plant)?;
@@ -66,13 +58,11 @@ pub fn run(a: &PilArgs) -> Result<(), String> {
         qemu: a.qemu.clone(),
         plugin,
         timeout_s: a.timeout,
-        controller: kind(a.controller),
+        controller: a.controller,
         payload_kg,
     };
-    let law = cfg
-        .controller
-        .law(payload_kg)
-        .ok_or_else(|| format!("the gain table has no `{}` rows", cfg.controller.name()))?;
+    let law = law_for(cfg.controller, payload_kg)
+        .ok_or_else(|| format!("the gain table has no `{}` rows", cfg.controller))?;
     let out = with_modes!(a.plant.modes, pil_n(&beam, &cfg, &opts))?;
     if let Some(path) = &a.telemetry {
         let rows = telemetry::first_move(&out.telemetry.rows)
@@ -82,7 +72,7 @@ pub fn run(a: &PilArgs) -> Result<(), String> {
         })
         .map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    let preset = Preset::from(a.plant.preset).name();
+    let preset = a.plant.preset.name();
     let title = format!(
         "{} slew (PIL), {} preset, {} modes",
         law.name(),

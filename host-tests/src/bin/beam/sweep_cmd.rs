@@ -1,14 +1,12 @@
 //! `beam sweep`: Monte Carlo over parameter errors and payloads, the scheduled controller
 //! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
 
-use crate::{
-    beam, controller_name, table_law, ControllerArg, PlantArgs, DEFAULT_SMC, DEFAULT_SMC_STRAIN,
-};
+use crate::{beam, default_law, named, PlantArgs};
 use clap::Args;
 use host_tests::metrics::Metrics;
 use host_tests::plot::{histograms, HistogramPanel};
 use host_tests::sweep::{percentiles, sweep, Case, SweepSpec};
-use model_core::{Law, PdGains, Preset};
+use model_core::{Law, LawKind, PdGains};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
@@ -19,8 +17,8 @@ pub struct SweepArgs {
     #[command(flatten)]
     plant: PlantArgs,
     /// Controller (gains from the compiled table at each case's payload).
-    #[arg(long, value_enum, default_value = "smc")]
-    controller: ControllerArg,
+    #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
+    controller: LawKind,
     /// Number of cases.
     #[arg(long, default_value_t = 1000)]
     cases: usize,
@@ -82,13 +80,8 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
         host_tests::plot::check_extension(path)?;
     }
     let nominal = *beam(&a.plant)?.params();
-    let kind = controller_name(a.controller);
-    let fallback = match a.controller {
-        ControllerArg::Pd => Law::Pd(PdGains::BASELINE),
-        ControllerArg::Smc => Law::Smc(DEFAULT_SMC),
-        ControllerArg::SmcStrain => Law::SmcStrain(DEFAULT_SMC_STRAIN),
-    };
-    let law_at = move |payload: f64| table_law(kind, Some(payload)).unwrap_or(fallback);
+    let kind = a.controller.name();
+    let law_at = move |payload: f64| default_law(a.controller, Some(payload));
     let spec = SweepSpec {
         cases: a.cases,
         spread: a.spread,
@@ -172,7 +165,7 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
                 .collect::<serde_json::Map<_, _>>()
         };
         let v = json!({
-            "controller": kind, "preset": Preset::from(a.plant.preset).name(), "modes": a.plant.modes,
+            "controller": kind, "preset": a.plant.preset.name(), "modes": a.plant.modes,
             "cases": a.cases, "spread": a.spread, "payload_max_kg": a.payload_max, "seed": a.seed, "seconds": seconds,
             "breakdowns": bc, "baseline_breakdowns": bb, "metrics": obj(&sc), "baseline_metrics": obj(&sb),
         });
@@ -182,7 +175,7 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
     println!(
         "{} cases in {seconds:.1} s: {kind} (gain table) vs PD 20/1, {} preset, {} mode(s), +-{:.0} % on EI, rho, Jm, friction, damping, payload 0..{} kg",
         a.cases,
-        Preset::from(a.plant.preset).name(),
+        a.plant.preset.name(),
         a.plant.modes,
         a.spread * 100.0,
         a.payload_max
