@@ -2,7 +2,7 @@
 //! and the parameter preset.
 //!
 //! Each is a small `Copy` enum with [`name`](LawKind::name) (the spelling on the command line,
-//! in `gains.toml` and in JSON), [`FromStr`](core::str::FromStr), `ALL` (for listings and
+//! in `gains.toml` and in JSON), [`FromStr`], `ALL` (for listings and
 //! value parsers) and a one-line `help`. With the `serde` feature the same names are the
 //! serialised form in text formats (TOML, JSON); binary formats (postcard) use the variant
 //! index. Everything else in the workspace (model-core's laws and gain schedule, the gain

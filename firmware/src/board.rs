@@ -18,8 +18,8 @@
 use embedded_hal_bus::spi::ExclusiveDevice;
 use firmware::ads1220::{self, Ads1220};
 use firmware::amplifier::{Amplifier, TorqueScale};
+use firmware::config::{self, MOVE_KNOTS};
 use firmware::drive::{Drive, QuadratureCounter};
-use firmware::moves::{self, MOVE_KNOTS};
 use firmware::operator::Operator;
 use stm32f4xx_hal::{
     gpio::{Input, Output, Pin, PinState, PushPull},
@@ -93,7 +93,7 @@ pub struct Board {
 #[derive(Clone, Copy, Debug, defmt::Format)]
 pub enum BringUpError {
     /// The compiled-in configuration.
-    Config(moves::BuildError),
+    Config(config::BuildError),
     /// The loop timer refused the rate.
     LoopTimer,
     /// The amplifier's pins (infallible on this MCU; kept for completeness).
@@ -165,8 +165,8 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         defmt::error!("bridge ADC: {=str}", what);
     }
 
-    let controller = moves::build_controller().map_err(BringUpError::Config)?;
-    let sequence = moves::sequence().map_err(BringUpError::Config)?;
+    let controller = config::build_controller().map_err(BringUpError::Config)?;
+    let sequence = config::sequence().map_err(BringUpError::Config)?;
     let mut drive = Drive::new(
         controller,
         encoder,

@@ -9,7 +9,6 @@
 
 pub mod ads1220;
 pub mod amplifier;
+pub mod config;
 pub mod drive;
-pub mod moves;
 pub mod operator;
-pub mod pil;

@@ -47,8 +47,8 @@ mod app {
         defmt::info!(
             "drive up: {} Hz loop, gains `{}` at {} kg",
             board::LOOP_HZ,
-            firmware::moves::CONTROLLER.name(),
-            firmware::moves::PAYLOAD_KG
+            firmware::config::CONTROLLER.name(),
+            firmware::config::PAYLOAD_KG
         );
         let (telemetry_in, telemetry_out) = cx.local.queue.split();
         (

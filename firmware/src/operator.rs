@@ -71,7 +71,7 @@ impl<const K: usize, const M: usize, S: InputPin, C: InputPin> Operator<K, M, S,
 
     /// The move whose start is nearest `theta_rad`.
     fn nearest(&self, theta_rad: f32) -> Option<&Spline<K>> {
-        crate::moves::nearest(&self.moves, theta_rad)
+        crate::config::nearest(&self.moves, theta_rad)
     }
 }
 

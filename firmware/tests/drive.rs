@@ -9,8 +9,8 @@ use embedded_hal::pwm::{ErrorType as PwmErrorType, SetDutyCycle};
 use embedded_hal::spi::{ErrorType as SpiErrorType, Operation, SpiDevice};
 use firmware::ads1220::{code_from_bytes, Ads1220};
 use firmware::amplifier::{Amplifier, TorqueScale};
+use firmware::config::{build_controller, sequence, MOVE_KNOTS};
 use firmware::drive::{Command, Drive, QuadratureCounter, Telemetry, MAX_STALE_TICKS};
-use firmware::moves::{build_controller, sequence, MOVE_KNOTS};
 use model_core::{CommandError, FaultFlags, Mode};
 use std::cell::Cell;
 use std::convert::Infallible;
@@ -271,7 +271,7 @@ fn the_strain_code_reaches_the_controller_sign_extended() {
 /// which pins the wire format to its description rather than to itself.
 #[test]
 fn frames_from_an_independent_encoder_decode() {
-    use firmware::pil::{decode, DriveMessage, FrameReader, HostMessage, SensorFrame};
+    use beam_wire::{decode, DriveMessage, FrameReader, HostMessage, SensorFrame};
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../fuzz/seeds/pil_frame/");
     let read = |name: &str| std::fs::read(format!("{dir}{name}")).unwrap();
     let frames = |bytes: Vec<u8>| {

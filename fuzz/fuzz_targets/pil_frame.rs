@@ -2,7 +2,7 @@
 //! decodes re-encodes to a frame that decodes to the same bytes again.
 #![no_main]
 
-use firmware::pil::{decode, encode, DriveMessage, FrameReader, HostMessage, MAX_FRAME};
+use beam_wire::{decode, encode, DriveMessage, FrameReader, HostMessage, MAX_FRAME};
 use libfuzzer_sys::fuzz_target;
 
 fn roundtrip<T>(frame: &[u8])

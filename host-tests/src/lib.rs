@@ -1,18 +1,15 @@
-//! Host side of the slewing-beam toolchain: the nonlinear plant, simulated sensors, the
-//! closed-loop runner around the model-core controller, metrics, plots and the `beam` CLI.
+//! The simulated world the control core is tested against: the nonlinear beam plant, the
+//! sensors (encoder counts and strain-bridge codes with noise), the closed-loop runner that
+//! drives model-core's `Controller::step` tick by tick, and the metrics of a run.
 //!
 //! Everything here is `std` and `f64`; the controller it drives is the very `no_std`, `f32`
-//! model-core code the firmware runs.
+//! model-core code the firmware runs. The tests in `tests/` run that controller against this
+//! plant (physics, closed loop, faults); the tools built on it (the `beam` CLI, the optimiser,
+//! calibration, sweeps, the PIL host) live in `beam-tools`.
+#![forbid(unsafe_code)]
 
-pub mod calibrate;
-pub mod io;
+pub mod decimal;
 pub mod metrics;
-pub mod optimize;
-pub mod pil;
 pub mod plant;
-pub mod plot;
-pub mod preset_file;
 pub mod sensors;
 pub mod sim;
-pub mod sweep;
-pub mod telemetry;

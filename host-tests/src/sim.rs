@@ -355,7 +355,7 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
     // The tick as the decimal it was written as (1e-3, not f32's 1.0000000475e-3): the drive's
     // timer period is exact, and the sample times print cleanly.
     let ts_f32 = drive.settings().ts_s;
-    let ts = crate::io::f32_decimal(ts_f32);
+    let ts = crate::decimal::f32_decimal(ts_f32);
     let theta_home = drive.settings().theta_home_rad as f64;
     let mut sensors = Sensors::new(opts.sensors, theta_home);
     let mut x = State::<N>::at_rest(reference.start() as f64);
@@ -368,7 +368,7 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
         drive.tick(&raw, false)?;
     }
     let ticks = (opts.duration_s / ts).round() as usize;
-    let time_of = |k: usize| crate::io::tick_time(k, ts);
+    let time_of = |k: usize| crate::decimal::tick_time(k, ts);
     let mut samples = Vec::with_capacity(ticks + 1);
     let mut breakdown = None;
     let mut last_cmd = None;

@@ -2,10 +2,10 @@
 //! handling, with the STM32F4 peripherals replaced by frames from the host's simulated plant.
 //!
 //! Runs on QEMU's `netduinoplus2` (an emulated STM32F405). Each tick the host writes one
-//! [`SensorFrame`](firmware::pil::SensorFrame) to semihosting stdin; the drive hands its
+//! [`SensorFrame`](beam_wire::SensorFrame) to semihosting stdin; the drive hands its
 //! encoder count, strain code and fault line to the same generic drivers the board uses (the
 //! ADS1220 driver clocks the code out of a stand-in SPI bus with DRDY always ready), runs
-//! `Drive::tick`, and writes one [`CommandFrame`](firmware::pil::CommandFrame) back on
+//! `Drive::tick`, and writes one [`CommandFrame`](beam_wire::CommandFrame) back on
 //! stdout. The tick is bracketed by `insn_mark_start` / `insn_mark_end` for the
 //! instruction-count plugin, and its telemetry goes out through defmt, here a logger on
 //! semihosting stderr. No clocks are configured: QEMU has no RCC model, and lockstep with
@@ -14,6 +14,10 @@
 
 #[cfg(target_os = "none")]
 mod pil {
+    use beam_wire::{
+        decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage,
+        SensorFrame, MAX_FRAME,
+    };
     use core::cell::{Cell, UnsafeCell};
     use core::convert::Infallible;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
@@ -22,12 +26,8 @@ mod pil {
     use embedded_hal::spi::{ErrorType as SpiErrorType, Operation, SpiDevice};
     use firmware::ads1220::Ads1220;
     use firmware::amplifier::{Amplifier, TorqueScale};
+    use firmware::config::{build_controller_for, nearest, sequence, SLEW_FROM_RAD};
     use firmware::drive::{Command, Drive, QuadratureCounter};
-    use firmware::moves::{build_controller_for, nearest, sequence, SLEW_FROM_RAD};
-    use firmware::pil::{
-        decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage,
-        SensorFrame, MAX_FRAME,
-    };
     use semihosting::io::{Read, Write};
     // The PAC's interrupt vector table, which cortex-m-rt's `device` feature expects.
     use stm32f4xx_hal as _;

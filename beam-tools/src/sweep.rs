@@ -4,9 +4,9 @@
 //! compared on the same beams. Cases run in parallel; each has its own seeded generator, so
 //! the result does not depend on the thread count.
 
-use crate::metrics::{metrics, Metrics};
-use crate::sensors::SensorConfig;
-use crate::sim::{simulate_mismatched, SimOptions};
+use host_tests::metrics::{metrics, Metrics};
+use host_tests::sensors::SensorConfig;
+use host_tests::sim::{simulate_mismatched, SimOptions};
 use model_core::{Beam, BeamParams, Law, ModalModel};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;

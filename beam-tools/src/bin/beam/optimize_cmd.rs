@@ -2,10 +2,10 @@
 //! baseline, optionally written into the gain table.
 
 use crate::{beam, named, PlantArgs};
+use beam_tools::optimize::{default_params, full_metrics, optimize, Outcome, Spec};
 use clap::{Args, ValueEnum};
 use gain_table::Gains;
 use host_tests::metrics::{CostSpec, Metrics};
-use host_tests::optimize::{default_params, full_metrics, optimize, Outcome, Spec};
 use model_core::{Beam, Law, LawKind, ModalModel, PdGains, StrainSmcGains, Switching};
 use serde_json::json;
 use std::path::PathBuf;
@@ -265,7 +265,7 @@ fn write_row(
         Vec::new()
     };
     // Store the f32 gains the drive will run, by their shortest decimals.
-    let f = host_tests::io::f32_decimal;
+    let f = host_tests::decimal::f32_decimal;
     let gains = match o.best.law {
         Law::Pd(g) => Gains::Pd(gain_table::PdRow {
             kp: f(g.kp),
@@ -300,7 +300,7 @@ fn write_row(
     gain_table::upsert(&mut rows, row);
     let text = gain_table::render(&rows);
     gain_table::parse(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
-    host_tests::io::write_atomically(path, |w| w.write_all(text.as_bytes()))
+    beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 

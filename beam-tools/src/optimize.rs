@@ -11,8 +11,8 @@
 //! is not running the designed law), no validity-guard breakdown, no latched fault, and,
 //! optionally, the hub within a given angle of the target at 0.6 s.
 
-use crate::metrics::{cost, metrics, CostSpec, Metrics};
-use crate::sim::{simulate, SimOptions, SimResult};
+use host_tests::metrics::{cost, metrics, CostSpec, Metrics};
+use host_tests::sim::{simulate, SimOptions, SimResult};
 use model_core::{Law, LawKind, ModalModel, PdGains, SmcGains, StrainSmcGains, Switching};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
@@ -211,7 +211,7 @@ pub fn evaluate<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -
     let law = law_for(spec, x);
     let opts = SimOptions {
         duration_s: eval_duration(spec),
-        sensors: crate::sensors::SensorConfig {
+        sensors: host_tests::sensors::SensorConfig {
             seed: spec.seed,
             ..Default::default()
         },
@@ -427,7 +427,7 @@ pub fn full_metrics<const N: usize>(
     seed: u64,
 ) -> Result<Metrics, String> {
     let opts = SimOptions {
-        sensors: crate::sensors::SensorConfig {
+        sensors: host_tests::sensors::SensorConfig {
             seed,
             ..Default::default()
         },

@@ -1,8 +1,8 @@
 //! `beam calibrate`: identify the model from a logged PD slew and write it as a parameter file.
 
 use crate::PlantArgs;
+use beam_tools::calibrate::{calibrate, read_log, StepReport, DEFAULT_EVALS};
 use clap::Args;
-use host_tests::calibrate::{calibrate, read_log, StepReport, DEFAULT_EVALS};
 use model_core::{Beam, BeamParams, ModalModel};
 use serde_json::json;
 use std::path::PathBuf;
@@ -35,8 +35,8 @@ pub fn run(a: &CalibrateArgs) -> Result<(), String> {
     let (found, steps) = with_modes!(a.plant.modes, calibrate(&log, &guess, a.evals))?;
     if let Some(path) = &a.out {
         let comment = format!("identified by beam calibrate from {}", a.log.display());
-        let text = host_tests::preset_file::render(&found, &comment);
-        host_tests::io::write_atomically(path, |w| w.write_all(text.as_bytes()))
+        let text = beam_tools::params_file::render(&found, &comment);
+        beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
             .map_err(|e| format!("{}: {e}", path.display()))?;
     }
     let (fm, gm) = with_modes!(a.plant.modes, summary(&found, &guess))?;

@@ -22,10 +22,10 @@ mod optimize_cmd;
 mod pil_cmd;
 mod sweep_cmd;
 
+use beam_tools::{files as io, plot};
 use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, SimOptions, SimResult};
-use host_tests::{io, plot};
 use model_core::{
     Beam, BeamParams, Law, LawKind, ModalModel, PdGains, Preset, SmcGains, StrainSmcGains,
     Switching,
@@ -286,7 +286,7 @@ fn main() -> ExitCode {
 
 fn beam(plant: &PlantArgs) -> Result<Beam, String> {
     let mut params: BeamParams = match &plant.params {
-        Some(path) => host_tests::preset_file::load(path)?,
+        Some(path) => beam_tools::params_file::load(path)?,
         None => BeamParams::preset(plant.preset),
     };
     if let Some(m) = plant.tip_mass {
@@ -423,7 +423,7 @@ fn simulate_n<const N: usize>(
 fn gains_json(law: &Law) -> serde_json::Value {
     // An f32 gain printed through f64 would show 0.1 as 0.10000000149011612: go by its
     // shortest decimal form instead.
-    let f = host_tests::io::f32_decimal;
+    let f = host_tests::decimal::f32_decimal;
     match law {
         Law::Pd(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
         Law::Smc(g) => json!({

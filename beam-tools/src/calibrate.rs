@@ -12,7 +12,7 @@
 //! beam's inertia trade against each other and a purely local search stalls.
 
 use crate::optimize::{latin_hypercube, Param};
-use crate::plant::{Plant, State};
+use host_tests::plant::{Plant, State};
 use model_core::{Beam, BeamParams, EncoderSpec, ModalModel};
 use rayon::prelude::*;
 

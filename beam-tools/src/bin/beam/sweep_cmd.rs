@@ -2,10 +2,10 @@
 //! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
 
 use crate::{beam, default_law, named, PlantArgs};
+use beam_tools::plot::{histograms, HistogramPanel};
+use beam_tools::sweep::{percentiles, sweep, Case, SweepSpec};
 use clap::Args;
 use host_tests::metrics::Metrics;
-use host_tests::plot::{histograms, HistogramPanel};
-use host_tests::sweep::{percentiles, sweep, Case, SweepSpec};
 use model_core::{Law, LawKind, PdGains};
 use serde_json::json;
 use std::io::Write;
@@ -77,7 +77,7 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
         return Err(format!("--cases {} must be 1..=1000000", a.cases));
     }
     if let Some(path) = &a.plot {
-        host_tests::plot::check_extension(path)?;
+        beam_tools::plot::check_extension(path)?;
     }
     let nominal = *beam(&a.plant)?.params();
     let kind = a.controller.name();
@@ -95,7 +95,7 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
     )?;
     let seconds = started.elapsed().as_secs_f64();
     if let Some(path) = &a.csv {
-        host_tests::io::write_atomically(path, |w| write_csv(&cases, w))
+        beam_tools::files::write_atomically(path, |w| write_csv(&cases, w))
             .map_err(|e| format!("{}: {e}", path.display()))?;
     }
     if let Some(path) = &a.plot {
@@ -132,7 +132,7 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
             a.spread * 100.0,
             a.payload_max
         );
-        host_tests::io::plot_atomically(path, |tmp| {
+        beam_tools::files::plot_atomically(path, |tmp| {
             histograms(&title, (kind, "pd 20/1"), &panels, tmp)
         })?;
     }

@@ -150,7 +150,7 @@ pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{}",
-            crate::io::tick_time(i, ts_s),
+            host_tests::decimal::tick_time(i, ts_s),
             r.tick,
             r.encoder_raw,
             r.strain_code,

@@ -2,13 +2,13 @@
 //! `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
 
 use crate::{named, PlantArgs, RunArgs};
+use beam_tools::files as io;
+use beam_tools::pil_host::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
+use beam_tools::telemetry::{self, Decoded};
 use clap::Args;
-use firmware::moves::law_for;
-use host_tests::io;
-use host_tests::pil::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
+use firmware::config::law_for;
 use host_tests::plant::Plant;
 use host_tests::sim::SimOptions;
-use host_tests::telemetry::{self, Decoded};
 use model_core::{Beam, LawKind, ModalModel};
 use serde_json::json;
 use std::path::PathBuf;

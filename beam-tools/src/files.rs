@@ -1,7 +1,7 @@
 //! Output files written whole or not at all: each is written to a temporary file beside its
 //! destination and renamed into place, so an error never leaves a partial file behind.
 
-use crate::sim::SimResult;
+use host_tests::sim::SimResult;
 use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -18,24 +18,6 @@ fn temp_beside(path: &Path) -> PathBuf {
         .map(|e| format!(".{}", e.to_string_lossy()))
         .unwrap_or_default();
     path.with_file_name(format!(".{name}.{}.tmp{ext}", std::process::id()))
-}
-
-/// An `f32` as the `f64` of its shortest decimal form: 0.1f32 becomes 0.1, not
-/// 0.10000000149011612, so gains print and round-trip through files as they were written.
-pub fn f32_decimal(x: f32) -> f64 {
-    x.to_string().parse::<f64>().unwrap_or(x as f64)
-}
-
-/// The time of tick `k` at period `ts_s`, as the decimal it is: `k / rate` is the nearest
-/// double to that decimal when the rate is a whole number of hertz (`k * 0.001` is not:
-/// 572 * 0.001 = 0.5720000000000001).
-pub fn tick_time(k: usize, ts_s: f64) -> f64 {
-    let rate = (1.0 / ts_s).round();
-    if (rate * ts_s - 1.0).abs() < 1e-12 {
-        k as f64 / rate
-    } else {
-        k as f64 * ts_s
-    }
 }
 
 /// Writes `path` through `fill`, atomically.

@@ -5,14 +5,14 @@
 //! built first (`cargo build -p firmware --bin pil --release --target thumbv7em-none-eabihf`,
 //! a no-op when it is up to date) so the test never runs a stale binary.
 
-use firmware::moves::build_controller_for;
-use firmware::pil::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
-use host_tests::calibrate::read_log;
+use beam_tools::calibrate::read_log;
+use beam_tools::pil_host::{build_plugin, paths, run_pil, PilConfig, PilDrive};
+use beam_tools::telemetry::{first_move, write_csv};
+use beam_wire::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
+use firmware::config::build_controller_for;
 use host_tests::metrics::metrics;
-use host_tests::pil::{build_plugin, paths, run_pil, PilConfig, PilDrive};
 use host_tests::plant::Plant;
 use host_tests::sim::{run, SimOptions};
-use host_tests::telemetry::{first_move, write_csv};
 use model_core::LawKind;
 use model_core::{Beam, BeamParams, ModalModel, Mode};
 use std::process::Command;
@@ -183,7 +183,7 @@ fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
 
     // One bit flipped in a frame's CRC.
     let mut drive = PilDrive::spawn(&config(LawKind::Pd, false), settings).unwrap();
-    let mut buf = [0u8; firmware::pil::MAX_FRAME + 1];
+    let mut buf = [0u8; beam_wire::MAX_FRAME + 1];
     let mut bytes = encode(&frame(0), &mut buf).unwrap().to_vec();
     let n = bytes.len();
     bytes[n - 2] ^= if bytes[n - 2] == 0x01 { 0x02 } else { 0x01 };

@@ -1,7 +1,7 @@
 //! The paper's figures 2-5 as one image: hub angle with its reference, hub velocity, root
 //! strain and mid-span strain against time. PNG or SVG, chosen by the file's extension.
 
-use crate::sim::SimResult;
+use host_tests::sim::SimResult;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -60,7 +60,8 @@ where
         .map_err(|e| err(&e))?;
     let panels = root.split_evenly((2, 2));
     let s = &run.samples;
-    let col = |f: fn(&crate::sim::Sample) -> f64| s.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
+    let col =
+        |f: fn(&host_tests::sim::Sample) -> f64| s.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
     let figures: [(&str, &str, Vec<Series>); 4] = [
         (
             "Hub angle",

@@ -2,20 +2,20 @@
 //! drive side of the closed loop, and the plant stays on the host.
 //!
 //! [`PilDrive`] implements [`DriveLoop`]: each tick it writes one sensor frame to the drive's
-//! semihosting stdin and reads one command frame from its stdout (`firmware::pil` defines both,
+//! semihosting stdin and reads one command frame from its stdout (`beam_wire` defines both,
 //! and both ends run the same encoder and decoder). QEMU runs under `timeout`, so a drive that
 //! hangs ends the run instead of the test. After the run the same sensor stream is replayed
-//! through the host's build of the very same controller (`firmware::moves`) and the torques
+//! through the host's build of the very same controller (`firmware::config`) and the torques
 //! compared bit for bit; the instruction-count plugin's log gives the cost of each tick, and
 //! the drive's defmt telemetry (on semihosting stderr) is decoded with the ELF.
 
-use crate::plant::Plant;
-use crate::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
 use crate::telemetry::{self, mode_of, Decoded};
-use firmware::moves::{build_controller_for, sequence};
-use firmware::pil::{
+use beam_wire::{
     decode, encode, CommandFrame, DriveMessage, FrameReader, HostMessage, SensorFrame, MAX_FRAME,
 };
+use firmware::config::{build_controller_for, sequence};
+use host_tests::plant::Plant;
+use host_tests::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
 use model_core::LawKind;
 use model_core::{ControllerSettings, FaultFlags, RawMeasurement, TorqueCommand};
 use std::io::{BufReader, Read, Write};

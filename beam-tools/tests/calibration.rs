@@ -4,8 +4,8 @@
 //! identified model must recover the rigid-body inertia within 5 % and the first hub-free
 //! frequency within 2 %.
 
-use host_tests::calibrate::{calibrate, read_log};
-use host_tests::io::write_trace_csv;
+use beam_tools::calibrate::{calibrate, read_log};
+use beam_tools::files::write_trace_csv;
 use host_tests::sim::{simulate, SimOptions};
 use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
 
@@ -51,7 +51,7 @@ fn calibration_recovers_the_plant_from_its_log() {
             < 1e-3));
 
     let (found, steps) =
-        calibrate::<3>(&log, &guess, host_tests::calibrate::DEFAULT_EVALS).unwrap();
+        calibrate::<3>(&log, &guess, beam_tools::calibrate::DEFAULT_EVALS).unwrap();
     for s in &steps {
         eprintln!(
             "{:20} {:?} rms theta {:.2e} rad, strain {:.2} ue",

@@ -13,8 +13,14 @@
 //! mismatch, a payload that does not deserialise, bytes left over. Sequence numbers (the tick)
 //! are checked by both ends on top of this. The same code runs in the PIL firmware and in
 //! `beam pil`, so both sides detect the same faults in the same way.
+//!
+//! Its own crate, `no_std` and free of the controller, because both ends depend on it: the
+//! firmware (the PIL drive) and the host (`beam pil`), and the drive's command protocol is to
+//! travel in the same envelope.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
 
-pub use model_core::LawKind;
+pub use beam_kinds::LawKind;
 use serde::{Deserialize, Serialize};
 
 /// Protocol version; bumped whenever a message changes.
@@ -89,7 +95,7 @@ pub enum DriveMessage {
 
 /// Why the PIL drive stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DriveError {
     /// A frame from the host was malformed.
     Frame(FrameError),
@@ -112,7 +118,7 @@ pub enum DriveError {
 
 /// A malformed frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(target_os = "none", derive(defmt::Format))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FrameError {
     /// More bytes than any valid frame before the delimiter.
     TooLong,
