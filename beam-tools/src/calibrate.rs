@@ -1,4 +1,4 @@
-//! System identification from a logged slew (DESIGN section 5): the model's parameters are
+//! System identification from a logged slew (docs/design.md, section 5): the model's parameters are
 //! fitted so that the plant, driven open loop by the logged torque, reproduces the logged hub
 //! angle (and, last, the root strain).
 //!
@@ -34,12 +34,90 @@ pub const DEFAULT_EVALS: usize = 2000;
 /// Local searches per step (besides the one from the current values).
 const LOCAL_STARTS: usize = 5;
 
-fn start_of(p: &BeamParams, which: &[(usize, f64, f64, bool)], params: &[Param]) -> Vec<f64> {
+fn start_of(p: &BeamParams, which: &[Fitted]) -> Vec<f64> {
     which
         .iter()
-        .zip(params)
-        .map(|(&(i, ..), q)| q.unit_of(get(p, i)))
+        .map(|f| f.range.unit_of(f.quantity.get(p)))
         .collect()
+}
+
+/// A log that cannot be calibrated on: the file, the line (1-based) where there is one, and
+/// the problem.
+#[derive(Debug, thiserror::Error)]
+#[error("{file}{}: {problem}", line.map(|l| format!(": line {l}")).unwrap_or_default())]
+pub struct LogError {
+    /// The file, as given.
+    pub file: String,
+    /// The line, if the problem is on one.
+    pub line: Option<usize>,
+    /// What is wrong.
+    pub problem: LogProblem,
+}
+
+/// What is wrong with a log.
+#[derive(Debug, thiserror::Error)]
+pub enum LogProblem {
+    /// No header.
+    #[error("empty file")]
+    Empty,
+    /// A required column is missing.
+    #[error("no `{column}` column (header: {header})")]
+    MissingColumn {
+        /// The column.
+        column: &'static str,
+        /// The header line.
+        header: String,
+    },
+    /// A row with the wrong number of fields.
+    #[error("{got} fields, the header has {header}")]
+    FieldCount {
+        /// Fields in the row.
+        got: usize,
+        /// Fields in the header.
+        header: usize,
+    },
+    /// A field that is not a number.
+    #[error("column `{column}`: `{text}` is not a number")]
+    NotANumber {
+        /// The column.
+        column: String,
+        /// What was there.
+        text: String,
+    },
+    /// A NaN or infinite value.
+    #[error("column `{column}`: {value} is not finite")]
+    NonFinite {
+        /// The column.
+        column: String,
+        /// The value.
+        value: f64,
+    },
+    /// Time that stands still or goes back.
+    #[error("column `t_s`: time {0} does not increase")]
+    TimeNotIncreasing(f64),
+    /// A change of sample period.
+    #[error("column `t_s`: the sample period changes (uniform sampling needed)")]
+    NonUniform,
+    /// Too few samples.
+    #[error("{0} samples: at least 100 (0.1 s at 1 kHz) are needed")]
+    TooShort(usize),
+    /// The log stops before the steps' windows end.
+    #[error("the log ends before 0.6 s: the four steps need 0..0.6 s")]
+    EndsEarly,
+}
+
+/// Why calibration could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateError {
+    /// The starting guess is not a valid beam.
+    #[error("the starting parameters")]
+    Guess(#[from] model_core::ParamError),
+    /// The model left its range during a step.
+    #[error("step `{step}`: the model broke down on this log")]
+    Breakdown {
+        /// The step.
+        step: &'static str,
+    },
 }
 
 /// A logged run: uniformly sampled time, applied torque, measured hub angle and root strain.
@@ -60,16 +138,29 @@ pub struct Log {
 /// Reads a log CSV: a header naming at least `t_s,torque_nm,theta_rad,root_strain` (and
 /// optionally `mid_strain`; other columns are ignored), then one row per sample. Errors name
 /// the file, the line and the column.
-pub fn read_log(text: &str, file: &str) -> Result<Log, String> {
+pub fn read_log(text: &str, file: &str) -> Result<Log, LogError> {
+    let err = |line, problem| LogError {
+        file: file.to_string(),
+        line,
+        problem,
+    };
     let mut lines = text
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or_else(|| format!("{file}: empty file"))?;
+    let (_, header) = lines.next().ok_or(err(None, LogProblem::Empty))?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let col = |name: &str| names.iter().position(|n| *n == name);
-    let need = |name: &str| {
-        col(name).ok_or_else(|| format!("{file}: line 1: no `{name}` column (header: {header})"))
+    let need = |name: &'static str| {
+        col(name).ok_or_else(|| {
+            err(
+                Some(1),
+                LogProblem::MissingColumn {
+                    column: name,
+                    header: header.to_string(),
+                },
+            )
+        })
     };
     let (it, iu, ith, ie) = (
         need("t_s")?,
@@ -87,40 +178,33 @@ pub fn read_log(text: &str, file: &str) -> Result<Log, String> {
     };
     for (n, line) in lines {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let at = |problem| err(Some(n + 1), problem);
         if fields.len() != names.len() {
-            return Err(format!(
-                "{file}: line {}: {} fields, the header has {}",
-                n + 1,
-                fields.len(),
-                names.len()
-            ));
+            return Err(at(LogProblem::FieldCount {
+                got: fields.len(),
+                header: names.len(),
+            }));
         }
-        let num = |i: usize| -> Result<f64, String> {
+        let num = |i: usize| -> Result<f64, LogError> {
             let v: f64 = fields[i].parse().map_err(|_| {
-                format!(
-                    "{file}: line {}: column `{}`: `{}` is not a number",
-                    n + 1,
-                    names[i],
-                    fields[i]
-                )
+                at(LogProblem::NotANumber {
+                    column: names[i].to_string(),
+                    text: fields[i].to_string(),
+                })
             })?;
             if v.is_finite() {
                 Ok(v)
             } else {
-                Err(format!(
-                    "{file}: line {}: column `{}`: {v} is not finite",
-                    n + 1,
-                    names[i]
-                ))
+                Err(at(LogProblem::NonFinite {
+                    column: names[i].to_string(),
+                    value: v,
+                }))
             }
         };
         let t = num(it)?;
         if let Some(&prev) = log.t.last() {
             if t <= prev {
-                return Err(format!(
-                    "{file}: line {}: column `t_s`: time {t} does not increase",
-                    n + 1
-                ));
+                return Err(at(LogProblem::TimeNotIncreasing(t)));
             }
         }
         log.t.push(t);
@@ -132,10 +216,7 @@ pub fn read_log(text: &str, file: &str) -> Result<Log, String> {
         }
     }
     if log.t.len() < 100 {
-        return Err(format!(
-            "{file}: {} samples: at least 100 (0.1 s at 1 kHz) are needed",
-            log.t.len()
-        ));
+        return Err(err(None, LogProblem::TooShort(log.t.len())));
     }
     let dt = log.t[1] - log.t[0];
     if let Some(k) = log
@@ -143,49 +224,86 @@ pub fn read_log(text: &str, file: &str) -> Result<Log, String> {
         .windows(2)
         .position(|w| ((w[1] - w[0]) - dt).abs() > 1e-3 * dt)
     {
-        return Err(format!(
-            "{file}: line {}: column `t_s`: the sample period changes (uniform sampling needed)",
-            k + 3
-        ));
+        return Err(err(Some(k + 3), LogProblem::NonUniform));
     }
     if *log.t.last().unwrap_or(&0.0) < 0.6 - 1e-9 {
-        return Err(format!(
-            "{file}: the log ends before 0.6 s: the four steps need 0..0.6 s"
-        ));
+        return Err(err(None, LogProblem::EndsEarly));
     }
     Ok(log)
 }
 
-/// The fitted quantities, in the order the steps use them.
-const NAMES: [&str; 6] = [
-    "jm_kgm2",
-    "density_kg_m3",
-    "ei_nm2",
-    "viscous_nms",
-    "coulomb_nm",
-    "root_gauge_m",
-];
-
-fn get(p: &BeamParams, i: usize) -> f64 {
-    [
-        p.jm_kgm2,
-        p.density_kg_m3,
-        p.ei_nm2,
-        p.viscous_nms,
-        p.coulomb_nm,
-        p.root_gauge_m,
-    ][i]
+/// A parameter the steps fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Quantity {
+    Jm,
+    Density,
+    Ei,
+    Viscous,
+    Coulomb,
+    RootGauge,
 }
 
-fn set(p: &mut BeamParams, i: usize, v: f64) {
-    *[
-        &mut p.jm_kgm2,
-        &mut p.density_kg_m3,
-        &mut p.ei_nm2,
-        &mut p.viscous_nms,
-        &mut p.coulomb_nm,
-        &mut p.root_gauge_m,
-    ][i] = v;
+impl Quantity {
+    /// The five of steps 1-3, in order.
+    const RIGID_AND_FRICTION: [Quantity; 5] = [
+        Quantity::Jm,
+        Quantity::Density,
+        Quantity::Ei,
+        Quantity::Viscous,
+        Quantity::Coulomb,
+    ];
+
+    /// Its `BeamParams` field.
+    fn name(self) -> &'static str {
+        match self {
+            Quantity::Jm => "jm_kgm2",
+            Quantity::Density => "density_kg_m3",
+            Quantity::Ei => "ei_nm2",
+            Quantity::Viscous => "viscous_nms",
+            Quantity::Coulomb => "coulomb_nm",
+            Quantity::RootGauge => "root_gauge_m",
+        }
+    }
+
+    fn field(self, p: &mut BeamParams) -> &mut f64 {
+        match self {
+            Quantity::Jm => &mut p.jm_kgm2,
+            Quantity::Density => &mut p.density_kg_m3,
+            Quantity::Ei => &mut p.ei_nm2,
+            Quantity::Viscous => &mut p.viscous_nms,
+            Quantity::Coulomb => &mut p.coulomb_nm,
+            Quantity::RootGauge => &mut p.root_gauge_m,
+        }
+    }
+
+    fn get(self, p: &BeamParams) -> f64 {
+        *self.field(&mut p.clone())
+    }
+
+    fn set(self, p: &mut BeamParams, v: f64) {
+        *self.field(p) = v;
+    }
+}
+
+/// One parameter of a step: what, and the range searched (the optimiser's [`Param`]).
+#[derive(Clone, Copy, Debug)]
+struct Fitted {
+    quantity: Quantity,
+    range: Param,
+}
+
+impl Fitted {
+    fn new(quantity: Quantity, lo: f64, hi: f64, log: bool) -> Self {
+        Fitted {
+            quantity,
+            range: Param {
+                name: quantity.name(),
+                lo,
+                hi,
+                log,
+            },
+        }
+    }
 }
 
 /// Replays the log's torque through the plant with `params`: the simulated hub angle and root
@@ -262,29 +380,20 @@ pub struct StepReport {
     pub rms_strain_err_ue: f64,
 }
 
-/// Fits `which` parameters of `p` within `bounds` to minimise the step's error.
+/// Fits the `which` parameters of `p`, within their ranges, to minimise the step's error.
 fn fit_step<const N: usize>(
     p: &mut BeamParams,
     log: &Log,
-    which: &[(usize, f64, f64, bool)],
+    which: &[Fitted],
     fit: Fit,
     evals: usize,
 ) {
-    let params: Vec<Param> = which
-        .iter()
-        .map(|&(i, lo, hi, log)| Param {
-            name: NAMES[i],
-            lo,
-            hi,
-            log,
-        })
-        .collect();
-    let start = start_of(p, which, &params);
+    let start = start_of(p, which);
     let base = *p;
     let at = |u: &[f64]| {
         let mut q = base;
-        for ((&(i, ..), par), &u) in which.iter().zip(&params).zip(u) {
-            set(&mut q, i, par.gain_at(u));
+        for (f, &u) in which.iter().zip(u) {
+            f.quantity.set(&mut q, f.range.gain_at(u));
         }
         q
     };
@@ -329,7 +438,7 @@ fn fit_step<const N: usize>(
         .into_iter()
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, u)| u)
-        .unwrap_or_else(|| start_of(p, which, &params));
+        .unwrap_or_else(|| start_of(p, which));
     // Keep the start if the search made things worse (it reports its last point on failure).
     let before = fit_error::<N>(p, log, fit).map_or(f64::INFINITY, |e| e.2);
     let after = fit_error::<N>(&at(&best), log, fit).map_or(f64::INFINITY, |e| e.2);
@@ -343,25 +452,31 @@ pub fn calibrate<const N: usize>(
     log: &Log,
     guess: &BeamParams,
     evals: usize,
-) -> Result<(BeamParams, Vec<StepReport>), String> {
-    Beam::try_build(*guess).map_err(|e| e.to_string())?;
+) -> Result<(BeamParams, Vec<StepReport>), CalibrateError> {
+    Beam::try_build(*guess)?;
     let mut p = *guess;
     let mut reports = Vec::new();
-    let wide = |v: f64| (v / 2.0, v * 2.0, true);
-    let friction_bounds = |v: f64, floor: f64| (0.0, (4.0 * v).max(floor), false);
-    let mut report =
-        |name, fit: Fit, which: &[(usize, f64, f64, bool)], p: &BeamParams| -> Result<(), String> {
-            let (et, es, _) = fit_error::<N>(p, log, fit)
-                .ok_or_else(|| format!("step `{name}`: the model broke down on this log"))?;
-            reports.push(StepReport {
-                name,
-                window: fit.window,
-                fitted: which.iter().map(|&(i, ..)| (NAMES[i], get(p, i))).collect(),
-                rms_theta_err_rad: et,
-                rms_strain_err_ue: es,
-            });
-            Ok(())
-        };
+    let wide = |q: Quantity, p: &BeamParams| {
+        let v = q.get(p);
+        Fitted::new(q, v / 2.0, v * 2.0, true)
+    };
+    let friction = |q: Quantity, p: &BeamParams, floor: f64| {
+        Fitted::new(q, 0.0, (4.0 * q.get(p)).max(floor), false)
+    };
+    let mut report = |step, fit: Fit, which: &[Fitted], p: &BeamParams| {
+        let (et, es, _) = fit_error::<N>(p, log, fit).ok_or(CalibrateError::Breakdown { step })?;
+        reports.push(StepReport {
+            name: step,
+            window: fit.window,
+            fitted: which
+                .iter()
+                .map(|f| (f.quantity.name(), f.quantity.get(p)))
+                .collect(),
+            rms_theta_err_rad: et,
+            rms_strain_err_ue: es,
+        });
+        Ok::<(), CalibrateError>(())
+    };
     let t_end = (log.t[log.t.len() - 1] - log.t[0]).min(0.6);
     // 1. Mass and stiffness, on the hub angle during the move.
     let fit1 = Fit {
@@ -369,13 +484,7 @@ pub fn calibrate<const N: usize>(
         w1: 1.0,
         w2: 0.0,
     };
-    let s1: Vec<_> = [0, 1, 2]
-        .iter()
-        .map(|&i| {
-            let (lo, hi, l) = wide(get(&p, i));
-            (i, lo, hi, l)
-        })
-        .collect();
+    let s1 = [Quantity::Jm, Quantity::Density, Quantity::Ei].map(|q| wide(q, &p));
     fit_step::<N>(&mut p, log, &s1, fit1, evals);
     report("mass and stiffness", fit1, &s1, &p)?;
     // 2. Friction, after the move.
@@ -385,14 +494,8 @@ pub fn calibrate<const N: usize>(
         w2: 0.0,
     };
     let s2 = [
-        {
-            let (lo, hi, l) = friction_bounds(p.viscous_nms, 1e-3);
-            (3, lo, hi, l)
-        },
-        {
-            let (lo, hi, l) = friction_bounds(p.coulomb_nm, 0.05);
-            (4, lo, hi, l)
-        },
+        friction(Quantity::Viscous, &p, 1e-3),
+        friction(Quantity::Coulomb, &p, 0.05),
     ];
     fit_step::<N>(&mut p, log, &s2, fit2, evals);
     report("friction", fit2, &s2, &p)?;
@@ -402,16 +505,15 @@ pub fn calibrate<const N: usize>(
         w1: 1.0,
         w2: 0.0,
     };
-    let s3: Vec<_> = (0..5)
-        .map(|i| {
-            let v = get(&p, i);
-            if i >= 3 {
-                (i, 0.8 * v, (1.2 * v).max(1e-6), false)
-            } else {
-                (i, 0.8 * v, 1.2 * v, true)
+    let s3 = Quantity::RIGID_AND_FRICTION.map(|q| {
+        let v = q.get(&p);
+        match q {
+            Quantity::Viscous | Quantity::Coulomb => {
+                Fitted::new(q, 0.8 * v, (1.2 * v).max(1e-6), false)
             }
-        })
-        .collect();
+            _ => Fitted::new(q, 0.8 * v, 1.2 * v, true),
+        }
+    });
     fit_step::<N>(&mut p, log, &s3, fit3, evals);
     report("all, within 20 %", fit3, &s3, &p)?;
     // 4. The strain side: where the root gauge sits and the beam coefficients (EI and
@@ -422,9 +524,14 @@ pub fn calibrate<const N: usize>(
         w2: 1.0,
     };
     let s4 = [
-        (5, 0.0, 0.2 * p.length_m, false),
-        (1, 0.8 * p.density_kg_m3, 1.2 * p.density_kg_m3, true),
-        (2, 0.8 * p.ei_nm2, 1.2 * p.ei_nm2, true),
+        Fitted::new(Quantity::RootGauge, 0.0, 0.2 * p.length_m, false),
+        Fitted::new(
+            Quantity::Density,
+            0.8 * p.density_kg_m3,
+            1.2 * p.density_kg_m3,
+            true,
+        ),
+        Fitted::new(Quantity::Ei, 0.8 * p.ei_nm2, 1.2 * p.ei_nm2, true),
     ];
     fit_step::<N>(&mut p, log, &s4, fit4, evals);
     report("strain side", fit4, &s4, &p)?;

@@ -1,6 +1,7 @@
 //! Output files written whole or not at all: each is written to a temporary file beside its
 //! destination and renamed into place, so an error never leaves a partial file behind.
 
+use crate::plot::PlotError;
 use host_tests::sim::SimResult;
 use std::fs;
 use std::io::{self, BufWriter, Write};
@@ -40,17 +41,33 @@ pub fn write_atomically(
     }
 }
 
+/// A file that could not be written: which, and why.
+#[derive(Debug, thiserror::Error)]
+#[error("{}", .path.display())]
+pub struct FileError {
+    /// The destination.
+    pub path: PathBuf,
+    /// Why.
+    #[source]
+    pub source: Box<dyn std::error::Error + Send + Sync>,
+}
+
 /// Draws a plot through `draw` (given a temporary path) and renames it to `path`.
 pub fn plot_atomically(
     path: &Path,
-    draw: impl FnOnce(&Path) -> Result<(), String>,
-) -> Result<(), String> {
+    draw: impl FnOnce(&Path) -> Result<(), PlotError>,
+) -> Result<(), FileError> {
     let tmp = temp_beside(path);
-    let out = draw(&tmp).and_then(|()| fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    let out = draw(&tmp)
+        .map_err(Box::from)
+        .and_then(|()| fs::rename(&tmp, path).map_err(Box::from));
     if out.is_err() {
         let _ = fs::remove_file(&tmp);
     }
-    out.map_err(|e| format!("{}: {e}", path.display()))
+    out.map_err(|source| FileError {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// The trace as CSV. The first five columns are what a drive logs and `beam calibrate` reads:

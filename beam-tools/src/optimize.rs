@@ -1,4 +1,4 @@
-//! Gain design by constrained optimisation of the paper's cost J (DESIGN section 5).
+//! Gain design by constrained optimisation of the paper's cost J (docs/design.md, section 5).
 //!
 //! Two stages, both deterministic for a seed: a Latin-hypercube sample of the gain bounds,
 //! evaluated in parallel (rayon keeps the results in sample order), then COBYLA (the `cobyla`
@@ -12,7 +12,7 @@
 //! optionally, the hub within a given angle of the target at 0.6 s.
 
 use host_tests::metrics::{cost, metrics, CostSpec, Metrics};
-use host_tests::sim::{simulate, SimOptions, SimResult};
+use host_tests::sim::{simulate, SimError, SimOptions, SimResult};
 use model_core::{Law, LawKind, ModalModel, PdGains, SmcGains, StrainSmcGains, Switching};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
@@ -239,7 +239,7 @@ fn score<const N: usize>(
     law: Law,
     run: &SimResult,
 ) -> Option<Evaluation> {
-    if run.breakdown.is_some() || run.faults != "none" {
+    if run.breakdown.is_some() || !run.faults.is_empty() {
         return None;
     }
     let limit = model.beam.params().torque_limit_nm;
@@ -425,7 +425,7 @@ pub fn full_metrics<const N: usize>(
     model: &ModalModel<N>,
     law: Law,
     seed: u64,
-) -> Result<Metrics, String> {
+) -> Result<Metrics, SimError> {
     let opts = SimOptions {
         sensors: host_tests::sensors::SensorConfig {
             seed,
@@ -433,7 +433,5 @@ pub fn full_metrics<const N: usize>(
         },
         ..SimOptions::default()
     };
-    simulate(model, law, &opts)
-        .map(|r| metrics(&r))
-        .map_err(|e| e.to_string())
+    simulate(model, law, &opts).map(|r| metrics(&r))
 }

@@ -47,11 +47,40 @@ pub fn render(params: &BeamParams, comment: &str) -> String {
     format!("# {comment}\n{}", toml::to_string(&f).unwrap_or_default())
 }
 
+/// A parameter file that could not be used: which file, and why.
+#[derive(Debug, thiserror::Error)]
+#[error("{}", .path.display())]
+pub struct ParamsFileError {
+    /// The file.
+    pub path: std::path::PathBuf,
+    /// Why.
+    #[source]
+    pub reason: ParamsFileReason,
+}
+
+/// Why a parameter file could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamsFileReason {
+    /// It could not be read.
+    #[error(transparent)]
+    Read(#[from] std::io::Error),
+    /// It is not a parameter file (TOML syntax, a missing or unknown key).
+    #[error("{0}")]
+    Syntax(String),
+    /// A value is invalid.
+    #[error(transparent)]
+    Invalid(#[from] model_core::ParamError),
+}
+
 /// Reads and validates a parameter file; errors name the file and the field.
-pub fn load(path: &Path) -> Result<BeamParams, String> {
-    let name = path.display();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: {e}"))?;
-    let f: File = toml::from_str(&text).map_err(|e| format!("{name}: {}", e.message().trim()))?;
+pub fn load(path: &Path) -> Result<BeamParams, ParamsFileError> {
+    let err = |reason| ParamsFileError {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| err(e.into()))?;
+    let f: File = toml::from_str(&text)
+        .map_err(|e| err(ParamsFileReason::Syntax(e.message().trim().to_string())))?;
     let p = BeamParams {
         length_m: f.length_m,
         width_m: f.width_m,
@@ -68,7 +97,7 @@ pub fn load(path: &Path) -> Result<BeamParams, String> {
         mid_gauge_m: f.mid_gauge_m,
         torque_limit_nm: f.torque_limit_nm,
     };
-    Beam::try_build(p).map_err(|e| format!("{name}: {e}"))?;
+    Beam::try_build(p).map_err(|e| err(e.into()))?;
     Ok(p)
 }
 
@@ -85,9 +114,18 @@ mod tests {
         std::fs::write(&path, render(&p, "test")).unwrap();
         assert_eq!(load(&path).unwrap(), p);
         std::fs::write(&path, render(&p, "x").replace("ei_nm2 = ", "ei_nm2 = -")).unwrap();
-        assert!(load(&path).unwrap_err().contains("`ei_nm2` must be > 0"));
+        let e = load(&path).unwrap_err();
+        assert_eq!(e.path, path);
+        assert!(
+            matches!(e.reason, ParamsFileReason::Invalid(p) if p.field == "ei_nm2"),
+            "{e:?}"
+        );
         std::fs::write(&path, render(&p, "x") + "colour = 3\n").unwrap();
-        assert!(load(&path).unwrap_err().contains("unknown field"));
+        let e = load(&path).unwrap_err();
+        assert!(
+            matches!(&e.reason, ParamsFileReason::Syntax(m) if m.contains("unknown field")),
+            "{e:?}"
+        );
         std::fs::remove_dir_all(dir).ok();
     }
 }

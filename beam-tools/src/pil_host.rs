@@ -11,7 +11,8 @@
 
 use crate::telemetry::{self, mode_of, Decoded};
 use beam_wire::{
-    decode, encode, CommandFrame, DriveMessage, FrameReader, HostMessage, SensorFrame, MAX_FRAME,
+    decode, encode, CommandFrame, DriveError, DriveMessage, FrameError, FrameReader, HostMessage,
+    SensorFrame, MAX_FRAME,
 };
 use firmware::config::{build_controller_for, sequence};
 use host_tests::plant::Plant;
@@ -91,12 +92,9 @@ pub struct PilDrive {
 impl PilDrive {
     /// Starts QEMU with the PIL firmware (and the plugin, if any), sends the setup and waits
     /// for the drive to report ready. `settings` are the drive's controller settings.
-    pub fn spawn(cfg: &PilConfig, settings: ControllerSettings) -> Result<Self, String> {
+    pub fn spawn(cfg: &PilConfig, settings: ControllerSettings) -> Result<Self, PilError> {
         if !cfg.elf.exists() {
-            return Err(format!(
-                "{}: not found (build the PIL firmware with `cargo fw`)",
-                cfg.elf.display()
-            ));
+            return Err(PilError::NoFirmware(cfg.elf.clone()));
         }
         let log = std::env::temp_dir().join(format!(
             "beam-pil-{}-{}.log",
@@ -120,7 +118,10 @@ impl PilDrive {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
-            .map_err(|e| format!("starting `timeout {}`: {e}", cfg.qemu))?;
+            .map_err(|source| PilError::Start {
+                qemu: cfg.qemu.clone(),
+                source,
+            })?;
         let stdin = child.stdin.take();
         let stdout = child.stdout.take();
         let stderr = child.stderr.take();
@@ -134,7 +135,7 @@ impl PilDrive {
         let mut drive = PilDrive {
             child,
             stdin,
-            stdout: BufReader::new(stdout.ok_or("no stdout pipe")?),
+            stdout: BufReader::new(stdout.ok_or(PilError::NoPipe)?),
             stderr_thread,
             log,
             timeout_s: cfg.timeout_s,
@@ -150,43 +151,40 @@ impl PilDrive {
         })?;
         match drive.receive() {
             Ok(DriveMessage::Ready) => Ok(drive),
-            Ok(DriveMessage::Error(e)) => Err(format!("the PIL drive refused the setup: {e}")),
-            Ok(other) => Err(format!("expected `ready` from the drive, got {other:?}")),
-            Err(e) => Err(drive.explain(e)),
+            Ok(DriveMessage::Error(e)) => Err(PilError::Refused(e)),
+            Ok(other) => Err(PilError::NotReady(other)),
+            Err(e) => Err(drive.explain(&e)),
         }
     }
 
     /// Sends one message.
-    pub fn send(&mut self, msg: &HostMessage) -> Result<(), String> {
+    pub fn send(&mut self, msg: &HostMessage) -> Result<(), PilError> {
         let mut buf = [0u8; MAX_FRAME + 1];
-        let frame = encode(msg, &mut buf).map_err(|e| format!("encoding a frame: {e}"))?;
+        let frame = encode(msg, &mut buf).map_err(PilError::Encode)?;
         self.send_raw(frame)
     }
 
     /// Sends bytes as they are (for tests of the drive's frame checks).
-    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let stdin = self
-            .stdin
-            .as_mut()
-            .ok_or("the link to the drive is closed")?;
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), PilError> {
+        let stdin = self.stdin.as_mut().ok_or(PilError::Closed)?;
         stdin
             .write_all(bytes)
             .and_then(|_| stdin.flush())
-            .map_err(|e| format!("writing to the drive: {e} (QEMU exited or timed out)"))
+            .map_err(PilError::Write)
     }
 
     /// Ends the run: `Stop`, then waits for QEMU. Returns its stderr (the drive's defmt
     /// stream) and the plugin's log, or why the drive did not exit cleanly.
-    pub fn finish(mut self) -> Result<(Vec<u8>, String), String> {
+    pub fn finish(mut self) -> Result<(Vec<u8>, String), PilError> {
         let stop = self.send(&HostMessage::Stop);
         self.stdin = None;
         let (status, stderr, log) = self.wait();
         stop?;
         if !status.success() {
-            return Err(format!(
-                "the PIL drive exited with {status}{}",
-                qemu_message(&stderr)
-            ));
+            return Err(PilError::Exited {
+                status,
+                qemu: qemu_message(&stderr),
+            });
         }
         Ok((stderr, log))
     }
@@ -212,34 +210,36 @@ impl PilDrive {
     }
 
     /// An error with what QEMU said and how it ended.
-    fn explain(&mut self, e: String) -> String {
+    fn explain(&mut self, e: &dyn std::error::Error) -> PilError {
         let (status, stderr, _) = self.wait();
         let killed = if status.code() == Some(124) {
             format!(" (killed after {} s)", self.timeout_s)
         } else {
             String::new()
         };
-        format!("{e}; QEMU {status}{killed}{}", qemu_message(&stderr))
+        PilError::Qemu {
+            cause: chain(e),
+            status,
+            killed,
+            qemu: qemu_message(&stderr),
+        }
     }
 
     /// Receives one message.
-    pub fn receive(&mut self) -> Result<DriveMessage, String> {
+    pub fn receive(&mut self) -> Result<DriveMessage, PilError> {
         let mut byte = [0u8; 1];
         loop {
-            let n = self
-                .stdout
-                .read(&mut byte)
-                .map_err(|e| format!("reading from the drive: {e}"))?;
+            let n = self.stdout.read(&mut byte).map_err(PilError::Read)?;
             if n == 0 {
                 return Err(if self.reader.partial() {
-                    "the drive's output ended in the middle of a frame".into()
+                    PilError::EndedMidFrame
                 } else {
-                    "the drive's output ended (QEMU exited or timed out)".into()
+                    PilError::Ended
                 });
             }
             if let Some(frame) = self.reader.push(byte[0]) {
-                let frame = frame.map_err(|e| format!("frame from the drive: {e}"))?;
-                return decode(frame).map_err(|e| format!("frame from the drive: {e}"));
+                let frame = frame.map_err(PilError::Frame)?;
+                return decode(frame).map_err(PilError::Frame);
             }
         }
     }
@@ -258,26 +258,23 @@ impl DriveLoop for PilDrive {
             amp_fault: raw.amp_fault,
             start,
         };
-        self.send(&HostMessage::Sensors(frame))
-            .map_err(SimError::Drive)?;
-        let c = match self.receive().map_err(SimError::Drive)? {
+        let drive = |e: PilError| SimError::Drive(Box::new(e));
+        self.send(&HostMessage::Sensors(frame)).map_err(drive)?;
+        let c = match self.receive().map_err(drive)? {
             DriveMessage::Command(c) if c.seq == self.seq => c,
             DriveMessage::Command(c) => {
-                return Err(SimError::Drive(format!(
-                    "command frame {} out of order, expected {}",
-                    c.seq, self.seq
-                )))
+                return Err(drive(PilError::OutOfOrder {
+                    got: c.seq,
+                    expected: self.seq,
+                }))
             }
-            DriveMessage::Error(e) => {
-                return Err(SimError::Drive(format!("the PIL drive stopped: {e}")))
-            }
-            DriveMessage::Ready => {
-                return Err(SimError::Drive("the drive sent `ready` mid-run".into()))
-            }
+            DriveMessage::Error(e) => return Err(drive(PilError::Stopped(e))),
+            DriveMessage::Ready => return Err(drive(PilError::ReadyMidRun)),
         };
-        let mode = mode_of(c.mode).ok_or_else(|| {
-            SimError::Drive(format!("command frame {}: mode {} unknown", c.seq, c.mode))
-        })?;
+        let mode = mode_of(c.mode).ok_or(drive(PilError::UnknownMode {
+            seq: c.seq,
+            mode: c.mode,
+        }))?;
         self.record.push((*raw, start, c));
         self.faults = c.faults;
         self.seq = self.seq.wrapping_add(1);
@@ -292,8 +289,8 @@ impl DriveLoop for PilDrive {
         })
     }
 
-    fn faults(&self) -> String {
-        FaultFlags(self.faults).to_string()
+    fn faults(&self) -> FaultFlags {
+        FaultFlags(self.faults)
     }
 }
 
@@ -320,11 +317,11 @@ pub fn ulps(a: f32, b: f32) -> u64 {
     key(a).abs_diff(key(b))
 }
 
-/// Parses the plugin's `insn-count: between markers = N` lines.
+/// Parses the plugin's `tick-insns N` lines (one per tick).
 pub fn parse_insn_log(text: &str) -> Option<InsnStats> {
     let counts: Vec<u64> = text
         .lines()
-        .filter_map(|l| l.strip_prefix("insn-count: between markers = "))
+        .filter_map(|l| l.strip_prefix("tick-insns "))
         .filter_map(|n| n.trim().parse().ok())
         .collect();
     Some(InsnStats {
@@ -337,27 +334,167 @@ pub fn parse_insn_log(text: &str) -> Option<InsnStats> {
 
 static RUN_ID: AtomicU32 = AtomicU32::new(0);
 
+/// What went wrong running the PIL drive.
+#[derive(Debug, thiserror::Error)]
+pub enum PilError {
+    /// The PIL firmware is not there.
+    #[error("{}: not found (build the PIL firmware with `cargo fw`)", .0.display())]
+    NoFirmware(PathBuf),
+    /// The PIL firmware could not be read.
+    #[error("{}: cannot read the PIL firmware (build it with `cargo fw`)", .path.display())]
+    ReadFirmware {
+        /// The ELF.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// QEMU (under `timeout`) did not start.
+    #[error("starting `timeout {qemu}`")]
+    Start {
+        /// The QEMU binary.
+        qemu: String,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The child process has no stdout pipe.
+    #[error("no stdout pipe to the drive")]
+    NoPipe,
+    /// The drive answered the setup with an error.
+    #[error("the PIL drive refused the setup: {0}")]
+    Refused(DriveError),
+    /// The drive answered the setup with something other than `Ready`.
+    #[error("expected `ready` from the drive, got {0:?}")]
+    NotReady(DriveMessage),
+    /// A message did not fit a frame.
+    #[error("encoding a frame")]
+    Encode(#[source] FrameError),
+    /// The link was closed before the message.
+    #[error("the link to the drive is closed")]
+    Closed,
+    /// Writing to QEMU's stdin failed.
+    #[error("writing to the drive (QEMU exited or timed out)")]
+    Write(#[source] std::io::Error),
+    /// Reading QEMU's stdout failed.
+    #[error("reading from the drive")]
+    Read(#[source] std::io::Error),
+    /// The drive's output stopped inside a frame.
+    #[error("the drive's output ended in the middle of a frame")]
+    EndedMidFrame,
+    /// The drive's output stopped.
+    #[error("the drive's output ended (QEMU exited or timed out)")]
+    Ended,
+    /// A malformed frame from the drive.
+    #[error("frame from the drive")]
+    Frame(#[source] FrameError),
+    /// A command frame for another tick.
+    #[error("command frame {got} out of order, expected {expected}")]
+    OutOfOrder {
+        /// The frame's tick.
+        got: u32,
+        /// The tick sent.
+        expected: u32,
+    },
+    /// The drive reported an error and stopped.
+    #[error("the PIL drive stopped: {0}")]
+    Stopped(DriveError),
+    /// `Ready` in the middle of a run.
+    #[error("the drive sent `ready` mid-run")]
+    ReadyMidRun,
+    /// A mode number the controller does not have.
+    #[error("command frame {seq}: mode {mode} unknown")]
+    UnknownMode {
+        /// The frame's tick.
+        seq: u32,
+        /// The mode number.
+        mode: u8,
+    },
+    /// QEMU exited with a failure status.
+    #[error("the PIL drive exited with {status}{qemu}")]
+    Exited {
+        /// Its status.
+        status: std::process::ExitStatus,
+        /// What QEMU said, if anything.
+        qemu: String,
+    },
+    /// A failure, with how QEMU ended after it.
+    #[error("{cause}; QEMU {status}{killed}{qemu}")]
+    Qemu {
+        /// The failure, with its causes, as text.
+        cause: String,
+        /// QEMU's exit status.
+        status: std::process::ExitStatus,
+        /// " (killed after N s)" when the timeout fired.
+        killed: String,
+        /// What QEMU said, if anything.
+        qemu: String,
+    },
+    /// The host's build of the drive's configuration failed.
+    #[error("controller {kind}: {reason:?}")]
+    Config {
+        /// The law.
+        kind: LawKind,
+        /// Why.
+        reason: firmware::config::BuildError,
+    },
+    /// The plugin was asked for but logged nothing.
+    #[error("the instruction-count plugin logged no counts: {0}")]
+    NoCounts(String),
+    /// The drive's defmt telemetry did not decode.
+    #[error(transparent)]
+    Telemetry(#[from] crate::telemetry::TelemetryError),
+    /// The closed loop failed.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The plugin's build script is missing.
+    #[error("{}: not found (or pass --no-insn-count)", .0.display())]
+    NoPluginScript(PathBuf),
+    /// Building the plugin failed (gcc missing, or the script failed).
+    #[error("building the instruction-count plugin with {}", .script.display())]
+    PluginBuild {
+        /// The build script.
+        script: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// An error and its causes as one line, `outer: inner: ...`.
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut next = e.source();
+    while let Some(cause) = next {
+        text.push_str(": ");
+        text.push_str(&cause.to_string());
+        next = cause.source();
+    }
+    text
+}
+
 /// Runs the paper's slew with the PIL drive under QEMU against `plant`.
 pub fn run_pil<const N: usize>(
     plant: Plant<N>,
     cfg: &PilConfig,
     opts: &SimOptions,
-) -> Result<PilOutcome, String> {
+) -> Result<PilOutcome, PilError> {
     // The host's build of the drive's controller: checks the setup before QEMU starts, and
     // is the reference the drive's torques are compared with.
-    let mut host = build_controller_for(cfg.controller, cfg.payload_kg)
-        .map_err(|e| format!("controller {}: {e:?}", cfg.controller.name()))?;
-    let reference = sequence().map_err(|e| format!("{e:?}"))?[0].clone();
-    let elf = std::fs::read(&cfg.elf).map_err(|e| {
-        format!(
-            "{}: {e} (build the PIL firmware with `cargo fw`)",
-            cfg.elf.display()
-        )
+    let config = |reason| PilError::Config {
+        kind: cfg.controller,
+        reason,
+    };
+    let mut host = build_controller_for(cfg.controller, cfg.payload_kg).map_err(config)?;
+    let reference = sequence().map_err(config)?[0].clone();
+    let elf = std::fs::read(&cfg.elf).map_err(|source| PilError::ReadFirmware {
+        path: cfg.elf.clone(),
+        source,
     })?;
     let mut drive = PilDrive::spawn(cfg, *host.settings())?;
     let run = match run_with(plant, &mut drive, &reference, opts) {
         Ok(run) => run,
-        Err(e) => return Err(drive.explain(e.to_string())),
+        Err(e) => return Err(drive.explain(&e)),
     };
     let record = std::mem::take(&mut drive.record);
     let ticks = drive.seq;
@@ -366,7 +503,7 @@ pub fn run_pil<const N: usize>(
     // The same sensor stream through the host's build of the same controller.
     let (mut max_diff, mut max_ulps, mut identical) = (0.0f64, 0u64, true);
     for (raw, start, c) in &record {
-        let h = host.tick(raw, *start).map_err(|e| e.to_string())?;
+        let h = host.tick(raw, *start)?;
         let d = (h.torque_nm as f64 - c.torque_nm as f64).abs();
         max_diff = max_diff.max(d);
         max_ulps = max_ulps.max(ulps(h.torque_nm, c.torque_nm));
@@ -376,9 +513,9 @@ pub fn run_pil<const N: usize>(
     }
     let telemetry = telemetry::decode_defmt(&elf, &stderr)?;
     let insns = match &cfg.plugin {
-        Some(_) => Some(parse_insn_log(&insn_text).ok_or_else(|| {
-            format!("the instruction-count plugin logged no counts: {insn_text}")
-        })?),
+        Some(_) => {
+            Some(parse_insn_log(&insn_text).ok_or_else(|| PilError::NoCounts(insn_text.clone()))?)
+        }
         None => None,
     };
     Ok(PilOutcome {
@@ -411,30 +548,34 @@ fn qemu_message(stderr: &[u8]) -> String {
     }
 }
 
-/// The instruction-count plugin, built with the shared script into `out_dir` when missing.
-pub fn build_plugin(tool_dir: &Path, out_dir: &Path) -> Result<PathBuf, String> {
-    let script = tool_dir.join("build.sh");
+/// The instruction-count plugin (`beam-tools/qemu-plugin`), built with its script into
+/// `out_dir` when missing or older than its source. Needs gcc.
+pub fn build_plugin(plugin_src: &Path, out_dir: &Path) -> Result<PathBuf, PilError> {
+    let script = plugin_src.join("build.sh");
     if !script.exists() {
-        return Err(format!(
-            "{}: not found (the shared qemu-insn-count tool; or pass --no-insn-count)",
-            script.display()
-        ));
+        return Err(PilError::NoPluginScript(script));
     }
-    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
-    let out = out_dir.join("libinsn_count.so");
+    let failed = |source| PilError::PluginBuild {
+        script: script.clone(),
+        source,
+    };
+    std::fs::create_dir_all(out_dir).map_err(failed)?;
+    let out = out_dir.join("libtick_insns.so");
     let status = Command::new("bash")
         .arg(&script)
         .arg(&out)
         .stdout(Stdio::null())
         .status()
-        .map_err(|e| format!("running {}: {e}", script.display()))?;
+        .map_err(failed)?;
     if !status.success() || !out.exists() {
-        return Err(format!("{} failed ({status})", script.display()));
+        return Err(failed(std::io::Error::other(format!(
+            "the script failed ({status})"
+        ))));
     }
     Ok(out)
 }
 
-/// Where the workspace keeps things: `target/` and the shared tools beside the checkout.
+/// Where the workspace keeps things: `target/` and the plugin's source.
 pub mod paths {
     use std::path::PathBuf;
 
@@ -451,14 +592,14 @@ pub mod paths {
         target.join("thumbv7em-none-eabihf/release/pil")
     }
 
-    /// The shared instruction-count tool.
-    pub fn insn_tool() -> PathBuf {
-        workspace().join("../shared/tools/qemu-insn-count")
+    /// The instruction-count plugin's source and build script.
+    pub fn insn_plugin_src() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("qemu-plugin")
     }
 
     /// Where the plugin is built.
     pub fn plugin_dir() -> PathBuf {
-        workspace().join("target/qemu-insn-count")
+        workspace().join("target/qemu-plugin")
     }
 }
 
@@ -477,7 +618,7 @@ mod tests {
 
     #[test]
     fn insn_lines_give_min_mean_max() {
-        let log = "insn-count: between markers = 300\nother\ninsn-count: between markers = 500\ninsn-count: total = 9\n";
+        let log = "tick-insns 300\nother\ntick-insns 500\ntick-insns-total 9\n";
         assert_eq!(
             parse_insn_log(log),
             Some(InsnStats {

@@ -4,20 +4,28 @@
 use host_tests::sim::SimResult;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Why a plot was not drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The file's extension names no format we draw.
+    #[error("plot file {} must end in .png or .svg", .0.display())]
+    Extension(PathBuf),
+    /// The backend failed (plotters' errors are generic over the backend: kept as text).
+    #[error("drawing: {0}")]
+    Draw(String),
+}
 
 /// `Ok` when `path` ends in `.png` or `.svg` (checked before any work is done).
-pub fn check_extension(path: &Path) -> Result<(), String> {
+pub fn check_extension(path: &Path) -> Result<(), PlotError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("png" | "svg") => Ok(()),
-        _ => Err(format!(
-            "plot file {} must end in .png or .svg",
-            path.display()
-        )),
+        _ => Err(PlotError::Extension(path.to_path_buf())),
     }
 }
 
@@ -29,17 +37,17 @@ macro_rules! render {
         if is_png {
             let root = BitMapBackend::new($path, $size).into_drawing_area();
             $draw($($arg,)* &root)?;
-            root.present().map_err(|e| e.to_string())
+            root.present().map_err(|e| PlotError::Draw(e.to_string()))
         } else {
             let root = SVGBackend::new($path, $size).into_drawing_area();
             $draw($($arg,)* &root)?;
-            root.present().map_err(|e| e.to_string())
+            root.present().map_err(|e| PlotError::Draw(e.to_string()))
         }
     }};
 }
 
 /// Draws `run` into `path` (`.png` or `.svg`), titled `title`.
-pub fn plot(run: &SimResult, title: &str, path: &Path) -> Result<(), String> {
+pub fn plot(run: &SimResult, title: &str, path: &Path) -> Result<(), PlotError> {
     render!(path, (1200, 900), draw(run, title))
 }
 
@@ -49,11 +57,11 @@ fn draw<DB: DrawingBackend>(
     run: &SimResult,
     title: &str,
     root: &DrawingArea<DB, Shift>,
-) -> Result<(), String>
+) -> Result<(), PlotError>
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: &dyn std::fmt::Display| e.to_string();
+    let err = |e: &dyn std::fmt::Display| PlotError::Draw(e.to_string());
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
         .titled(title, ("sans-serif", 24))
@@ -150,7 +158,7 @@ pub fn histograms(
     labels: (&str, &str),
     panels: &[HistogramPanel],
     path: &Path,
-) -> Result<(), String> {
+) -> Result<(), PlotError> {
     let size = (600 * panels.len().max(1) as u32, 500);
     render!(path, size, draw_histograms(title, labels, panels))
 }
@@ -160,11 +168,11 @@ fn draw_histograms<DB: DrawingBackend>(
     labels: (&str, &str),
     panels: &[HistogramPanel],
     root: &DrawingArea<DB, Shift>,
-) -> Result<(), String>
+) -> Result<(), PlotError>
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: &dyn std::fmt::Display| e.to_string();
+    let err = |e: &dyn std::fmt::Display| PlotError::Draw(e.to_string());
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
         .titled(title, ("sans-serif", 22))

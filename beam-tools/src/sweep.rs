@@ -6,7 +6,7 @@
 
 use host_tests::metrics::{metrics, Metrics};
 use host_tests::sensors::SensorConfig;
-use host_tests::sim::{simulate_mismatched, SimOptions};
+use host_tests::sim::{simulate_mismatched, SimError, SimOptions};
 use model_core::{Beam, BeamParams, Law, ModalModel};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
@@ -94,14 +94,13 @@ pub fn sweep<const N: usize>(
     spec: &SweepSpec,
     law_for_payload: &(dyn Fn(f64) -> Law + Sync),
     baseline: Law,
-) -> Result<Vec<Case>, String> {
+) -> Result<Vec<Case>, SimError> {
     (0..spec.cases)
         .into_par_iter()
         .map(|i| {
             let p = Perturbation::draw(spec, i);
-            let build = |params: BeamParams| -> Result<ModalModel<N>, String> {
-                let beam = Beam::try_build(params).map_err(|e| e.to_string())?;
-                ModalModel::try_build(&beam).map_err(|e| e.to_string())
+            let build = |params: BeamParams| -> Result<ModalModel<N>, SimError> {
+                Ok(ModalModel::try_build(&Beam::try_build(params)?)?)
             };
             let plant = build(p.apply(nominal))?;
             let drive = build(BeamParams {
@@ -115,11 +114,7 @@ pub fn sweep<const N: usize>(
                 },
                 ..Default::default()
             };
-            let run = |law| {
-                simulate_mismatched(&plant, &drive, law, &opts)
-                    .map(|r| metrics(&r))
-                    .map_err(|e| e.to_string())
-            };
+            let run = |law| simulate_mismatched(&plant, &drive, law, &opts).map(|r| metrics(&r));
             Ok(Case {
                 perturbation: p,
                 controller: run(law_for_payload(p.payload_kg))?,

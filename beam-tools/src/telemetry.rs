@@ -12,6 +12,63 @@
 use model_core::{FaultFlags, Mode};
 use std::fmt::Write as _;
 
+/// What is wrong with a telemetry stream or log.
+#[derive(Debug, thiserror::Error)]
+pub enum TelemetryError {
+    /// A `tlm` message with fewer than nine fields.
+    #[error("{0} fields after `tlm`, expected 9")]
+    FieldCount(usize),
+    /// A field that does not parse.
+    #[error("field `{field}`: `{text}` is not a number")]
+    NotANumber {
+        /// The field's name.
+        field: &'static str,
+        /// What was there.
+        text: String,
+    },
+    /// A mode number outside 0 to 3.
+    #[error("field `mode`: `{0}` is not 0 to 3")]
+    Mode(String),
+    /// A malformed telemetry message in a decoded defmt stream.
+    #[error("telemetry message `{text}`")]
+    Message {
+        /// The message.
+        text: String,
+        /// What is wrong with it.
+        #[source]
+        source: Box<TelemetryError>,
+    },
+    /// A malformed telemetry line in decoded text.
+    #[error("line {line}")]
+    Line {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with it.
+        #[source]
+        source: Box<TelemetryError>,
+    },
+    /// The ELF's defmt table could not be read.
+    #[error("reading the firmware's defmt table: {0}")]
+    Table(String),
+    /// The ELF has no defmt table.
+    #[error("the firmware has no defmt table (was it built with defmt?)")]
+    NoTable,
+    /// Nothing to write.
+    #[error("no telemetry rows")]
+    NoRows,
+    /// A gap in the tick numbers.
+    #[error("tick {tick} follows tick {previous}: samples were dropped")]
+    Dropped {
+        /// The tick found.
+        tick: u32,
+        /// The tick before it.
+        previous: u32,
+    },
+    /// Writing the CSV failed.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
 /// One tick as the drive logged it: the firmware's own telemetry record.
 pub type Row = firmware::drive::Telemetry;
 
@@ -29,7 +86,7 @@ pub fn mode_of(m: u8) -> Option<Mode> {
 
 /// Parses one decoded message. `None` if it is not a telemetry message (other log lines are
 /// skipped); an error if it is one but malformed.
-pub fn parse_message(text: &str) -> Option<Result<Row, String>> {
+pub fn parse_message(text: &str) -> Option<Result<Row, TelemetryError>> {
     let rest = text
         .split_whitespace()
         .skip_while(|w| *w != "tlm")
@@ -41,14 +98,20 @@ pub fn parse_message(text: &str) -> Option<Result<Row, String>> {
     Some(parse_fields(&rest))
 }
 
-fn parse_fields(f: &[&str]) -> Result<Row, String> {
+fn parse_fields(f: &[&str]) -> Result<Row, TelemetryError> {
     // Probe tools may append the log location after the message; the nine fields come first.
     if f.len() < 9 {
-        return Err(format!("{} fields after `tlm`, expected 9", f.len()));
+        return Err(TelemetryError::FieldCount(f.len()));
     }
-    fn num<T: std::str::FromStr>(f: &[&str], i: usize, name: &str) -> Result<T, String> {
-        f[i].parse()
-            .map_err(|_| format!("field `{name}`: `{}` is not a number", f[i]))
+    fn num<T: std::str::FromStr>(
+        f: &[&str],
+        i: usize,
+        field: &'static str,
+    ) -> Result<T, TelemetryError> {
+        f[i].parse().map_err(|_| TelemetryError::NotANumber {
+            field,
+            text: f[i].to_string(),
+        })
     }
     Ok(Row {
         tick: num(f, 0, "tick")?,
@@ -58,8 +121,7 @@ fn parse_fields(f: &[&str]) -> Result<Row, String> {
         theta_rad: num(f, 4, "theta_rad")?,
         theta_ref_rad: num(f, 5, "theta_ref_rad")?,
         strain: num(f, 6, "strain")?,
-        mode: mode_of(num(f, 7, "mode")?)
-            .ok_or_else(|| format!("field `mode`: `{}` is not 0 to 3", f[7]))?,
+        mode: mode_of(num(f, 7, "mode")?).ok_or_else(|| TelemetryError::Mode(f[7].to_string()))?,
         faults: FaultFlags(num(f, 8, "faults")?),
     })
 }
@@ -76,10 +138,10 @@ pub struct Decoded {
 }
 
 /// Decodes a raw defmt byte stream with the format table of `elf`.
-pub fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Decoded, String> {
+pub fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Decoded, TelemetryError> {
     let table = defmt_decoder::Table::parse(elf)
-        .map_err(|e| format!("reading the firmware's defmt table: {e}"))?
-        .ok_or("the firmware has no defmt table (was it built with defmt?)")?;
+        .map_err(|e| TelemetryError::Table(e.to_string()))?
+        .ok_or(TelemetryError::NoTable)?;
     let mut decoder = table.new_stream_decoder();
     decoder.received(stream);
     let mut out = Decoded::default();
@@ -89,7 +151,12 @@ pub fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Decoded, String> {
                 let text = frame.display_message().to_string();
                 match parse_message(&text) {
                     Some(Ok(row)) => out.rows.push(row),
-                    Some(Err(e)) => return Err(format!("telemetry message `{text}`: {e}")),
+                    Some(Err(e)) => {
+                        return Err(TelemetryError::Message {
+                            text,
+                            source: Box::new(e),
+                        })
+                    }
                     None => out.other.push(text),
                 }
             }
@@ -106,12 +173,17 @@ pub fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Decoded, String> {
 }
 
 /// Parses already-decoded text, one message per line.
-pub fn parse_text(text: &str) -> Result<Decoded, String> {
+pub fn parse_text(text: &str) -> Result<Decoded, TelemetryError> {
     let mut out = Decoded::default();
     for (n, line) in text.lines().enumerate() {
         match parse_message(line) {
             Some(Ok(row)) => out.rows.push(row),
-            Some(Err(e)) => return Err(format!("line {}: {e}", n + 1)),
+            Some(Err(e)) => {
+                return Err(TelemetryError::Line {
+                    line: n + 1,
+                    source: Box::new(e),
+                })
+            }
             None if line.trim().is_empty() => {}
             None => out.other.push(line.to_string()),
         }
@@ -133,19 +205,22 @@ pub fn first_move(rows: &[Row]) -> Option<&[Row]> {
 /// Writes `rows` as the CSV `beam calibrate` reads, with `t_s` counted from the first row's
 /// tick at `ts_s` per tick. Ticks must increase by one: a gap (dropped samples) is an error,
 /// since calibration needs uniform sampling.
-pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<(), String> {
-    let first = rows.first().ok_or("no telemetry rows")?.tick;
+pub fn write_csv(
+    rows: &[Row],
+    ts_s: f64,
+    w: &mut dyn std::io::Write,
+) -> Result<(), TelemetryError> {
+    let first = rows.first().ok_or(TelemetryError::NoRows)?.tick;
     let mut s = String::from(
         "t_s,tick,encoder_raw,strain_code,torque_nm,theta_rad,theta_ref_rad,root_strain,mode,faults\n",
     );
     for (i, r) in rows.iter().enumerate() {
         let expected = first.wrapping_add(i as u32);
         if r.tick != expected {
-            return Err(format!(
-                "tick {} follows tick {}: samples were dropped",
-                r.tick,
-                rows[i - 1].tick
-            ));
+            return Err(TelemetryError::Dropped {
+                tick: r.tick,
+                previous: rows[i - 1].tick,
+            });
         }
         let _ = writeln!(
             s,
@@ -162,7 +237,7 @@ pub fn write_csv(rows: &[Row], ts_s: f64, w: &mut dyn std::io::Write) -> Result<
             r.faults.0
         );
     }
-    w.write_all(s.as_bytes()).map_err(|e| e.to_string())
+    Ok(w.write_all(s.as_bytes())?)
 }
 
 #[cfg(test)]
@@ -196,8 +271,23 @@ mod tests {
     #[test]
     fn malformed_telemetry_is_an_error_naming_the_field() {
         let e = parse_text("tlm 1 2 3 x 5 6 7 8 9").unwrap_err();
-        assert!(e.contains("line 1") && e.contains("torque_nm"), "{e}");
-        assert!(parse_text("tlm 1 2 3").unwrap_err().contains("3 fields"));
+        let TelemetryError::Line { line: 1, source } = e else {
+            panic!("{e:?}")
+        };
+        assert!(
+            matches!(
+                *source,
+                TelemetryError::NotANumber {
+                    field: "torque_nm",
+                    ..
+                }
+            ),
+            "{source:?}"
+        );
+        assert!(matches!(
+            parse_text("tlm 1 2 3").unwrap_err(),
+            TelemetryError::Line { source, .. } if matches!(*source, TelemetryError::FieldCount(3))
+        ));
     }
 
     #[test]
@@ -214,9 +304,13 @@ mod tests {
             faults: FaultFlags(0),
         };
         let mut out = vec![];
-        assert!(write_csv(&[row(5), row(6), row(8)], 1e-3, &mut out)
-            .unwrap_err()
-            .contains("tick 8 follows tick 6"));
+        assert!(matches!(
+            write_csv(&[row(5), row(6), row(8)], 1e-3, &mut out),
+            Err(TelemetryError::Dropped {
+                tick: 8,
+                previous: 6
+            })
+        ));
         let mut out = vec![];
         write_csv(&[row(5), row(6)], 1e-3, &mut out).unwrap();
         let text = String::from_utf8(out).unwrap();

@@ -178,6 +178,8 @@ impl core::fmt::Display for FrameError {
     }
 }
 
+impl core::error::Error for FrameError {}
+
 impl core::fmt::Display for DriveError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
@@ -192,6 +194,8 @@ impl core::fmt::Display for DriveError {
         }
     }
 }
+
+impl core::error::Error for DriveError {}
 
 /// Collects bytes into frames: everything up to a zero delimiter.
 #[derive(Debug)]

@@ -1,4 +1,4 @@
-//! The nonlinear slewing-beam plant of DESIGN section 2, in `f64`.
+//! The nonlinear slewing-beam plant of docs/design.md, section 2, in `f64`.
 //!
 //! ```text
 //! [Mtt + q'Sq] theta'' + h'q'' + 2 theta' q'Sq' + b theta' + friction = tau
@@ -15,6 +15,17 @@
 use model_core::linalg::{dot, mat_vec, quad};
 use model_core::ModalModel;
 use ode_solvers::{DVector, Dop853, System};
+
+/// Why the reference integrator could not advance the plant.
+#[derive(Debug, thiserror::Error)]
+pub enum IntegrationError {
+    /// DOP853 gave up (too many steps, step-size underflow, stiffness).
+    #[error("the reference integrator stopped")]
+    Stopped(#[from] ode_solvers::dop_shared::IntegrationError),
+    /// It returned without a final state.
+    #[error("the reference integrator returned no state")]
+    NoOutput,
+}
 
 /// Velocity scale of the Coulomb friction's smooth sign, rad/s: `Fc tanh(omega / eps)`.
 pub const COULOMB_SMOOTHING_RAD_S: f64 = 1e-3;
@@ -217,15 +228,15 @@ impl<const N: usize> Plant<N> {
         dt: f64,
         rtol: f64,
         atol: f64,
-    ) -> Result<State<N>, String> {
+    ) -> Result<State<N>, IntegrationError> {
         let sys = Held { plant: *self, tau };
         let mut stepper = Dop853::new(sys, 0.0, dt, dt, x.to_vector(), rtol, atol);
-        stepper.integrate().map_err(|e| format!("{e:?}"))?;
+        stepper.integrate()?;
         stepper
             .y_out()
             .last()
             .map(State::from_vector)
-            .ok_or_else(|| "no output".to_string())
+            .ok_or(IntegrationError::NoOutput)
     }
 
     /// Kinetic plus strain energy T + V, J.

@@ -13,7 +13,6 @@ use model_core::{
     ControlLaw, Controller, ControllerSettings, Law, LawKind, ModalModel, Mode, PdGains,
     RawMeasurement, SmcGains, Spline, StrainSmcGains, Switching, TorqueCommand,
 };
-use std::fmt;
 
 /// Start and end of the paper's slew, rad, and its duration AT, s.
 pub const SLEW_FROM_RAD: f64 = -std::f64::consts::FRAC_PI_2;
@@ -23,7 +22,7 @@ pub const SLEW_TO_RAD: f64 = std::f64::consts::FRAC_PI_2;
 pub const SLEW_TIME_S: f64 = 0.35;
 
 /// The paper's SMC gains picked by hand for the aluminium preset with 3 modes: a grid over
-/// W, A, beta ranked by the tip's settling time (README, "Choosing the gains").
+/// W, A, beta ranked by the tip's settling time (README, "Control laws and the hand-picked gains").
 pub const HAND_PICKED_SMC: SmcGains = SmcGains {
     w: 10.0,
     a: 1000.0,
@@ -188,35 +187,32 @@ pub struct SimResult {
     pub breakdown: Option<(f64, Breakdown)>,
     /// The move's final angle, rad.
     pub theta_final: f64,
-    /// The controller's latched faults at the end (as text; "none" if none).
-    pub faults: String,
+    /// The controller's latched faults at the end.
+    pub faults: model_core::FaultFlags,
 }
 
-/// A run that could not start.
-#[derive(Debug)]
+/// A run that could not start, or whose drive failed.
+#[derive(Debug, thiserror::Error)]
 pub enum SimError {
     /// The gains or settings were rejected.
-    Config(ConfigError),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     /// The move was rejected.
-    Spline(model_core::SplineError),
+    #[error("move")]
+    Spline(#[source] model_core::SplineError),
     /// An option is out of range.
+    #[error("{0}")]
     Option(&'static str),
+    /// The beam parameters were rejected.
+    #[error(transparent)]
+    Beam(#[from] model_core::ParamError),
+    /// The modal model could not be built.
+    #[error(transparent)]
+    Model(#[from] model_core::ModelError),
     /// The drive on the other end of the loop failed (the PIL drive under QEMU).
-    Drive(String),
+    #[error(transparent)]
+    Drive(Box<dyn std::error::Error + Send + Sync>),
 }
-
-impl fmt::Display for SimError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SimError::Config(e) => write!(f, "{e}"),
-            SimError::Spline(e) => write!(f, "move: {e}"),
-            SimError::Option(what) => write!(f, "{what}"),
-            SimError::Drive(why) => write!(f, "{why}"),
-        }
-    }
-}
-
-impl std::error::Error for SimError {}
 
 /// Controller settings matching the plant and sensors: the torque limit of the beam, the
 /// encoder and ADC specs of the sensors, the home angle of the slew's start.
@@ -270,8 +266,8 @@ pub trait DriveLoop {
     fn settings(&self) -> &ControllerSettings;
     /// One tick. `start` asks for the move to start with this tick, as the START button does.
     fn tick(&mut self, raw: &RawMeasurement, start: bool) -> Result<TorqueCommand, SimError>;
-    /// The latched faults at the end, as text ("none" if none).
-    fn faults(&self) -> String;
+    /// The latched faults at the end.
+    fn faults(&self) -> model_core::FaultFlags;
 }
 
 impl<const K: usize> DriveLoop for Controller<K> {
@@ -288,8 +284,8 @@ impl<const K: usize> DriveLoop for Controller<K> {
         Ok(self.step(raw))
     }
 
-    fn faults(&self) -> String {
-        Controller::faults(self).to_string()
+    fn faults(&self) -> model_core::FaultFlags {
+        Controller::faults(self)
     }
 }
 

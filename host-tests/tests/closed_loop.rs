@@ -2,7 +2,7 @@
 //!
 //! The facts checked come from the physics, not from earlier output: a slew that settles
 //! must end at its target and at rest; the model must break down for Table 1's printed EI
-//! (DESIGN section 2: the tip deflects past the beam's length within about 0.2 s); the
+//! (docs/design.md, section 2: the model leaves its range within about 0.2 s); the
 //! sliding-mode controller must leave less residual vibration than the PD baseline.
 
 use host_tests::metrics::metrics;
@@ -21,7 +21,7 @@ fn smc_and_pd_settle_the_aluminium_slew_and_smc_leaves_less_vibration() {
     let smc = simulate(&m, Law::Smc(HAND_PICKED_SMC), &opts).unwrap();
     for (name, run) in [("pd", &pd), ("smc", &smc)] {
         assert!(run.breakdown.is_none(), "{name}: {:?}", run.breakdown);
-        assert_eq!(run.faults, "none", "{name}");
+        assert!(run.faults.is_empty(), "{name}: {}", run.faults);
         let m = metrics(run);
         // Settled: at the target within half a degree, and at rest, at 2 s.
         assert!(m.err_deg_t2_0.unwrap() < 0.5, "{name}: {:?}", m);

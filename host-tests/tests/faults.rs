@@ -130,7 +130,7 @@ fn a_slow_gauge_drift_is_ridden_through_and_a_fast_one_trips_over_strain() {
     // paper SMC does not use strain, so the slew is as good as without the drift.
     let slow = run(FaultKind::StrainDrift { per_s: 500e-6 }, 0.6, 2.0);
     let (ms, mn) = (metrics(&slow), metrics(&nominal()));
-    assert_eq!(slow.faults, "none");
+    assert!(slow.faults.is_empty(), "{}", slow.faults);
     assert_eq!(ms.err_deg_t2_0, mn.err_deg_t2_0);
     assert_eq!(ms.rms_root_strain_ue_0_4_0_6, mn.rms_root_strain_ue_0_4_0_6);
     // 5000 ue/s: the apparent strain passes the trip level within about 0.6 s; the fault
@@ -163,7 +163,7 @@ fn a_load_that_holds_the_drive_at_its_limit_is_ridden_through_without_wind_up() 
         0.1,
         3.0,
     );
-    assert_eq!(r.faults, "none");
+    assert!(r.faults.is_empty(), "{}", r.faults);
     let saturated = r.samples[tick(0.1)..tick(0.5)]
         .iter()
         .filter(|s| s.torque == 10.0)
@@ -182,7 +182,7 @@ fn a_missed_tick_holds_the_last_torque_and_changes_little() {
     // At the slew's peak speed (0.175 s).
     let r = run(FaultKind::MissedTick, 0.175, 2.0);
     let n = nominal();
-    assert_eq!(r.faults, "none");
+    assert!(r.faults.is_empty(), "{}", r.faults);
     let k = tick(0.175);
     assert_eq!(r.samples[k].torque, r.samples[k - 1].torque);
     let (mr, mn) = (metrics(&r), metrics(&n));

@@ -4,11 +4,10 @@
 //! the only way to obtain a [`Beam`], so everything downstream (modal model, controller, plant)
 //! may rely on finite, positive, in-range values.
 
-use core::fmt;
-
 /// Young's modulus of aluminium used by the `aluminium` preset, Pa.
 pub const ALUMINIUM_E_PA: f64 = 69.0e9;
 
+pub use crate::error::{ParamError, ParamErrorKind};
 pub use beam_kinds::Preset;
 
 /// Raw physical parameters (SI units). Validate with [`Beam::try_build`].
@@ -86,42 +85,6 @@ impl BeamParams {
     /// Mass per unit length rho, kg/m.
     pub fn rho_kg_m(&self) -> f64 {
         self.density_kg_m3 * self.width_m * self.thickness_m
-    }
-}
-
-/// What is wrong with a parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ParamErrorKind {
-    /// NaN or infinite.
-    NonFinite,
-    /// Must be strictly positive.
-    NotPositive,
-    /// Must be zero or positive.
-    Negative,
-    /// Outside its documented range.
-    OutOfRange,
-}
-
-/// A rejected parameter or gain: which field and why.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ParamError {
-    /// The field name as in [`BeamParams`].
-    pub field: &'static str,
-    /// The reason.
-    pub kind: ParamErrorKind,
-}
-
-impl fmt::Display for ParamError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let why = match self.kind {
-            ParamErrorKind::NonFinite => "must be finite",
-            ParamErrorKind::NotPositive => "must be > 0",
-            ParamErrorKind::Negative => "must be >= 0",
-            ParamErrorKind::OutOfRange => "is out of range",
-        };
-        write!(f, "`{}` {}", self.field, why)
     }
 }
 
@@ -216,7 +179,7 @@ mod tests {
         for &p in Preset::ALL {
             assert!(Beam::try_build(BeamParams::preset(p)).is_ok());
         }
-        // DESIGN: aluminium with Table 1's section gives EI about 1.71 N m^2.
+        // docs/design.md, section 2: aluminium with Table 1's section gives EI about 1.71 N m^2.
         let ei = BeamParams::aluminium().ei_nm2;
         assert!((ei - 1.71).abs() < 0.01, "EI {ei}");
     }

@@ -11,7 +11,8 @@
 //! rest) -> `Slewing` (tracking the spline after [`Controller::start_move`]) -> `Holding` (the
 //! law keeps regulating the final point) ; any fault -> `Fault` (torque off, latched).
 
-use crate::beam::{ParamError, ParamErrorKind};
+pub use crate::error::{CommandError, ConfigError};
+use crate::error::{ParamError, ParamErrorKind};
 use crate::law::{ControlLaw, Estimate};
 use crate::measure::{angle_rad, AdcSpec, CounterExtender, EncoderSpec, LowPass};
 use crate::spline::{RefPoint, Spline};
@@ -182,28 +183,6 @@ impl Default for ControllerSettings {
     }
 }
 
-/// Why a controller could not be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ConfigError {
-    /// A setting or gain is invalid.
-    Param(ParamError),
-}
-
-impl From<ParamError> for ConfigError {
-    fn from(e: ParamError) -> Self {
-        ConfigError::Param(e)
-    }
-}
-
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ConfigError::Param(e) => e.fmt(f),
-        }
-    }
-}
-
 /// Validated, immutable configuration derived from the settings.
 #[derive(Clone, Debug, PartialEq)]
 struct Config<const K: usize> {
@@ -250,16 +229,6 @@ pub const STALL_TORQUE_FRACTION: f32 = 0.2;
 /// Idle samples averaged for the strain offset at most (a quarter second at 1 kHz is plenty,
 /// and the sum cannot overflow).
 const MAX_ZERO_SAMPLES: u32 = 1 << 16;
-
-/// Why a command was refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum CommandError {
-    /// A fault is latched: reset first.
-    Faulted,
-    /// A move is already running.
-    Busy,
-}
 
 /// The per-tick controller, generic over the move's knot capacity `K`.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,5 +1,5 @@
 //! The control laws: the paper's sliding-mode controller, the strain-augmented variant, and
-//! the PD baseline (DESIGN section 4).
+//! the PD baseline (docs/design.md, section 4).
 //!
 //! [`Law`] is what a user chooses (gains and variant); [`ControlLaw::try_build`] validates it
 //! against a [`ModalModel`] once and folds the model into a few `f32` constants, so the

@@ -7,18 +7,59 @@
 //!
 //! - [`beam`]: physical parameters, the two presets, validation.
 //! - [`modal`]: the assumed-modes model (mode shapes, mass, stiffness and foreshortening
-//!   matrices, frequencies) of DESIGN section 2, in `f64` because it is computed once.
+//!   matrices, frequencies) of docs/design.md, section 2, in `f64` because it is computed once.
 //! - [`spline`]: the rest-to-rest reference (quintic and multi-knot C2).
 //! - [`measure`]: raw counts and ADC codes to angle, velocity and strain.
 //! - [`law`]: the paper's SMC, the strain-augmented SMC and the PD baseline.
 //! - [`controller`]: the per-tick step, its state machine and fault detection.
+//! - [`error`]: every error type, with `Display` and `core::error::Error`.
 //!
-//! SI units inside; names carry units where they are not obvious (`torque_nm`).
+//! SI units inside; names carry units where they are not obvious (`torque_nm`). The model,
+//! the laws and the tick are explained in the repository's `docs/design.md`.
+//!
+//! # Example
+//!
+//! Build the aluminium beam's 3-mode model, the paper's SMC with the compiled table's gains,
+//! and a controller for the paper's slew; then run ticks as the drive does, raw readings in
+//! and torque out:
+//!
+//! ```
+//! use model_core::gains::{schedule, GAIN_TABLE};
+//! use model_core::{
+//!     Beam, BeamParams, ControlLaw, Controller, ControllerSettings, LawKind, ModalModel, Mode,
+//!     RawMeasurement, Spline,
+//! };
+//! use core::f32::consts::FRAC_PI_2;
+//!
+//! let beam = Beam::try_build(BeamParams::aluminium())?;
+//! let model = ModalModel::<3>::try_build(&beam)?;
+//! let gains = schedule(GAIN_TABLE, LawKind::Smc, 0.0).expect("the table has smc rows");
+//! let law = ControlLaw::try_build(gains, &model)?;
+//! let slew = Spline::<2>::quintic(-FRAC_PI_2, FRAC_PI_2, 0.35)?;
+//! // By default the encoder counter reads 0 at -90 deg, where the slew starts.
+//! let mut controller = Controller::try_build(ControllerSettings::default(), law, slew)?;
+//!
+//! // Idle: torque off while the strain offset is measured.
+//! let at_rest = RawMeasurement::default();
+//! assert_eq!(controller.step(&at_rest).torque_nm, 0.0);
+//!
+//! // Start the move; with the hub held at the start, the reference runs away from it, so the
+//! // law pushes the hub forward, within the drive's limit.
+//! controller.start_move().expect("idle and not faulted");
+//! let mut out = controller.step(&at_rest);
+//! for _ in 0..20 {
+//!     out = controller.step(&at_rest);
+//! }
+//! assert_eq!(out.mode, Mode::Slewing);
+//! assert!(out.torque_nm > 0.0 && out.torque_nm <= 10.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
 pub mod beam;
 pub mod controller;
+pub mod error;
 pub mod gains;
 pub mod law;
 pub mod linalg;

@@ -1,4 +1,4 @@
-//! The assumed-modes model of the beam (DESIGN section 2), for 1 to 4 clamped-free modes.
+//! The assumed-modes model of the beam (docs/design.md, section 2), for 1 to 4 clamped-free modes.
 //!
 //! Mode shapes are the cantilever's, `phi_i(x) = cosh kx - cos kx - s_i (sinh kx - sin kx)`,
 //! normalised so that `int_0^L phi_i phi_j dx = L delta_ij`. Every matrix is an integral over
@@ -7,11 +7,11 @@
 //! configuration: built once by [`ModalModel::try_build`], then only read.
 
 use crate::beam::Beam;
+pub use crate::error::ModelError;
 use crate::linalg::{self, Mat};
 use core::f64::consts::PI;
-use core::fmt;
 
-/// Roots b_i of `cos b cosh b = -1`, the clamped-free eigenvalues (DESIGN section 2).
+/// Roots b_i of `cos b cosh b = -1`, the clamped-free eigenvalues (docs/design.md, section 2).
 pub const MODE_ROOTS: [f64; 4] = [1.875_104_07, 4.694_091_13, 7.854_757_44, 10.995_540_73];
 
 /// Most modes supported.
@@ -21,30 +21,6 @@ pub const MAX_MODES: usize = MODE_ROOTS.len();
 /// exact to about 1e-13 relative for mode 4 (checked by the orthonormality test).
 const GL_POINTS: usize = 8;
 const PANELS: usize = 32;
-
-/// Why a model could not be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ModelError {
-    /// The mode count must be 1 to 4.
-    UnsupportedModeCount(usize),
-    /// A mass matrix came out singular or indefinite (cannot happen for valid parameters).
-    NotPositiveDefinite(&'static str),
-}
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ModelError::UnsupportedModeCount(n) => {
-                write!(
-                    f,
-                    "{n} modes requested: the model supports 1 to {MAX_MODES}"
-                )
-            }
-            ModelError::NotPositiveDefinite(what) => write!(f, "{what} is not positive definite"),
-        }
-    }
-}
 
 /// One clamped-free mode shape on a beam of length `length_m`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -140,7 +116,7 @@ fn integrate<F: FnMut(f64) -> f64>(length_m: f64, mut f: F) -> f64 {
     0.5 * h * sum
 }
 
-/// The modal model with `N` flexible modes: matrices of DESIGN section 2 and derived data.
+/// The modal model with `N` flexible modes: matrices of docs/design.md, section 2 and derived data.
 ///
 /// Build with [`ModalModel::try_build`]; fields are public for reading.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -374,7 +350,7 @@ mod tests {
 
     #[test]
     fn with_hub_free_the_first_mode_rises_to_about_9_8_hz() {
-        // DESIGN section 2: with the aluminium EI the first hub-free mode is near 9.8 Hz.
+        // docs/design.md, section 2: with the aluminium EI the first hub-free mode is near 9.8 Hz.
         let beam = Beam::try_build(BeamParams::aluminium()).unwrap();
         let m = ModalModel::<4>::try_build(&beam).unwrap();
         assert!((m.pinned_hz[0] - 9.8).abs() < 0.3, "{:?}", m.pinned_hz);

@@ -7,7 +7,7 @@
 //! accelerations come from central differences of the knot positions; the end knots are at
 //! rest. Before the first knot and after the last the reference is held at rest.
 
-use core::fmt;
+pub use crate::error::SplineError;
 use heapless::Vec;
 
 /// Reference position, velocity and acceleration at one instant (rad, rad/s, rad/s^2).
@@ -20,47 +20,6 @@ pub struct RefPoint {
     pub vel: f32,
     /// Acceleration, rad/s^2.
     pub acc: f32,
-}
-
-/// Why a spline could not be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum SplineError {
-    /// At least two knots are needed.
-    TooFewKnots,
-    /// More knots than the spline's capacity.
-    TooManyKnots {
-        /// The capacity `K`.
-        capacity: usize,
-    },
-    /// Knot `index` has a NaN or infinite time or position.
-    NonFinite {
-        /// Offending knot.
-        index: usize,
-    },
-    /// The first knot must be at t = 0 (time counts from the start of the move).
-    FirstKnotNotAtZero,
-    /// Knot `index` is not later than the knot before it.
-    TimesNotIncreasing {
-        /// Offending knot.
-        index: usize,
-    },
-}
-
-impl fmt::Display for SplineError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SplineError::TooFewKnots => write!(f, "a move needs at least two knots"),
-            SplineError::TooManyKnots { capacity } => {
-                write!(f, "a move holds at most {capacity} knots")
-            }
-            SplineError::NonFinite { index } => write!(f, "knot {index} is not finite"),
-            SplineError::FirstKnotNotAtZero => write!(f, "the first knot must be at t = 0"),
-            SplineError::TimesNotIncreasing { index } => {
-                write!(f, "knot {index} is not later than the knot before it")
-            }
-        }
-    }
 }
 
 /// One segment: start time, duration, and coefficients in normalised time tau in [0, 1].

@@ -32,7 +32,7 @@ mod pil {
     // The PAC's interrupt vector table, which cortex-m-rt's `device` feature expects.
     use stm32f4xx_hal as _;
 
-    /// Instruction-count markers (../shared/tools/qemu-insn-count): different bodies, so the
+    /// Instruction-count markers (counted by `beam-tools/qemu-plugin`): different bodies, so the
     /// linker cannot fold them into one address.
     #[no_mangle]
     #[inline(never)]

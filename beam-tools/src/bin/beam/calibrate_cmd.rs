@@ -1,6 +1,7 @@
 //! `beam calibrate`: identify the model from a logged PD slew and write it as a parameter file.
 
 use crate::PlantArgs;
+use anyhow::{bail, Context};
 use beam_tools::calibrate::{calibrate, read_log, StepReport, DEFAULT_EVALS};
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
@@ -25,19 +26,19 @@ pub struct CalibrateArgs {
     json: bool,
 }
 
-pub fn run(a: &CalibrateArgs) -> Result<(), String> {
+pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.evals == 0 || a.evals > 1_000_000 {
-        return Err(format!("--evals {} must be 1..=1000000", a.evals));
+        bail!("--evals {} must be 1..=1000000", a.evals);
     }
     let guess = *crate::beam(&a.plant)?.params();
-    let text = std::fs::read_to_string(&a.log).map_err(|e| format!("{}: {e}", a.log.display()))?;
+    let text = std::fs::read_to_string(&a.log).with_context(|| a.log.display().to_string())?;
     let log = read_log(&text, &a.log.display().to_string())?;
     let (found, steps) = with_modes!(a.plant.modes, calibrate(&log, &guess, a.evals))?;
     if let Some(path) = &a.out {
         let comment = format!("identified by beam calibrate from {}", a.log.display());
         let text = beam_tools::params_file::render(&found, &comment);
         beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+            .with_context(|| path.display().to_string())?;
     }
     let (fm, gm) = with_modes!(a.plant.modes, summary(&found, &guess))?;
     if a.json {
@@ -90,10 +91,9 @@ fn print_step(s: &StepReport) {
 fn summary<const N: usize>(
     found: &BeamParams,
     guess: &BeamParams,
-) -> Result<(serde_json::Value, serde_json::Value), String> {
-    let describe = |p: &BeamParams| -> Result<serde_json::Value, String> {
-        let m = ModalModel::<N>::try_build(&Beam::try_build(*p).map_err(|e| e.to_string())?)
-            .map_err(|e| e.to_string())?;
+) -> anyhow::Result<(serde_json::Value, serde_json::Value)> {
+    let describe = |p: &BeamParams| -> anyhow::Result<serde_json::Value> {
+        let m = ModalModel::<N>::try_build(&Beam::try_build(*p)?)?;
         Ok(
             json!({"jm_kgm2": p.jm_kgm2, "density_kg_m3": p.density_kg_m3, "ei_nm2": p.ei_nm2, "viscous_nms": p.viscous_nms,
                   "coulomb_nm": p.coulomb_nm, "root_gauge_m": p.root_gauge_m, "mtt": m.mtt, "jeff": m.jeff,

@@ -1,9 +1,18 @@
 //! `beam`: the command line of the slewing-beam toolchain.
 //!
-//! `beam model` prints the modal model of a preset; `beam simulate` runs the paper's slew in
-//! closed loop with the model-core controller and prints the metrics, optionally writing the
-//! trace as CSV and the paper's figures as a plot. `--json` prints one JSON object on stdout.
-//! Errors print one line on stderr and exit with code 2.
+//! - `beam model`: the modal model of a preset (matrices, clamped and pinned frequencies).
+//! - `beam simulate`: the paper's slew in closed loop with the model-core controller; the
+//!   metrics, and optionally the trace as CSV and the paper's figures as a plot.
+//! - `beam optimize`: gain design by constrained optimisation of the paper's cost J,
+//!   optionally written into the gain table.
+//! - `beam calibrate`: the model's parameters from a logged PD slew.
+//! - `beam sweep`: Monte Carlo over parameter errors and payloads, against the PD baseline.
+//! - `beam pil`: the slew with the PIL firmware under QEMU as the drive.
+//! - `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
+//!
+//! `--json` prints one JSON object on stdout. Every error prints one line on stderr and
+//! exits with code 2.
+#![forbid(unsafe_code)]
 
 /// Calls `$f::<N>` with the runtime mode count `$n` (1 to 4) as a const generic.
 macro_rules! with_modes {
@@ -22,6 +31,7 @@ mod optimize_cmd;
 mod pil_cmd;
 mod sweep_cmd;
 
+use anyhow::{anyhow, bail, Context};
 use beam_tools::{files as io, plot};
 use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::metrics;
@@ -187,12 +197,12 @@ struct RunArgs {
 
 impl RunArgs {
     /// The run's options, checked before anything runs (the plot's format too).
-    fn options(&self) -> Result<SimOptions, String> {
+    fn options(&self) -> anyhow::Result<SimOptions> {
         if !(self.duration.is_finite() && self.duration > 0.0 && self.duration <= 3600.0) {
-            return Err(format!(
+            bail!(
                 "--duration {} must be a number of seconds in (0, 3600]",
                 self.duration
-            ));
+            );
         }
         if let Some(path) = &self.plot {
             plot::check_extension(path)?;
@@ -208,10 +218,10 @@ impl RunArgs {
     }
 
     /// Writes the trace CSV and the figures, if asked for.
-    fn write(&self, run: &SimResult, title: &str) -> Result<(), String> {
+    fn write(&self, run: &SimResult, title: &str) -> anyhow::Result<()> {
         if let Some(path) = &self.csv {
             io::write_atomically(path, |w| io::write_trace_csv(run, w))
-                .map_err(|e| format!("{}: {e}", path.display()))?;
+                .with_context(|| path.display().to_string())?;
         }
         if let Some(path) = &self.plot {
             io::plot_atomically(path, |tmp| plot::plot(run, title, tmp))?;
@@ -226,10 +236,10 @@ fn run_json(
     law: &Law,
     preset: &str,
     modes: u8,
-) -> Result<serde_json::Map<String, serde_json::Value>, String> {
-    let v = serde_json::to_value(metrics(run)).map_err(|e| e.to_string())?;
+) -> anyhow::Result<serde_json::Map<String, serde_json::Value>> {
+    let v = serde_json::to_value(metrics(run))?;
     let serde_json::Value::Object(mut o) = v else {
-        return Err("metrics are not an object".into());
+        bail!("metrics are not an object");
     };
     let reason = run.breakdown.as_ref().map(|(_, why)| why.to_string());
     o.insert("preset".into(), json!(preset));
@@ -237,7 +247,7 @@ fn run_json(
     o.insert("controller".into(), json!(law.name()));
     o.insert("gains".into(), gains_json(law));
     o.insert("breakdown_reason".into(), json!(reason));
-    o.insert("faults".into(), json!(run.faults));
+    o.insert("faults".into(), json!(run.faults.to_string()));
     Ok(o)
 }
 
@@ -276,15 +286,21 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One line, whatever the source's message looks like (TOML's spans several).
-            let line: Vec<&str> = e.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+            // The error and its causes, `outer: inner`, on one line whatever the source's
+            // message looks like (TOML's spans several).
+            let text = format!("{e:#}");
+            let line: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
             eprintln!("beam: error: {}", line.join("; "));
             ExitCode::from(2)
         }
     }
 }
 
-fn beam(plant: &PlantArgs) -> Result<Beam, String> {
+fn beam(plant: &PlantArgs) -> anyhow::Result<Beam> {
     let mut params: BeamParams = match &plant.params {
         Some(path) => beam_tools::params_file::load(path)?,
         None => BeamParams::preset(plant.preset),
@@ -292,16 +308,16 @@ fn beam(plant: &PlantArgs) -> Result<Beam, String> {
     if let Some(m) = plant.tip_mass {
         params.tip_mass_kg = m;
     }
-    Beam::try_build(params).map_err(|e| e.to_string())
+    Beam::try_build(params).map_err(anyhow::Error::from)
 }
 
-fn run_model(a: &ModelArgs) -> Result<(), String> {
+fn run_model(a: &ModelArgs) -> anyhow::Result<()> {
     let beam = beam(&a.plant)?;
     with_modes!(a.plant.modes, print_model(&beam, a))
 }
 
-fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> Result<(), String> {
-    let m = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
+fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> anyhow::Result<()> {
+    let m = ModalModel::<N>::try_build(beam)?;
     let p = beam.params();
     let preset = a.plant.preset.name();
     if a.json {
@@ -330,9 +346,9 @@ fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> Result<(), String>
     Ok(())
 }
 
-fn law(a: &SimulateArgs) -> Result<Law, String> {
+fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
     let reject = |flag: &str| {
-        Err(format!(
+        Err(anyhow!(
             "--{flag} does not apply to --controller {}",
             a.controller
         ))
@@ -390,7 +406,7 @@ fn default_law(kind: LawKind, payload_kg: Option<f64>) -> Law {
     .unwrap_or(host_tests::sim::hand_picked(kind))
 }
 
-fn run_simulate(a: &SimulateArgs) -> Result<(), String> {
+fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
     let beam = beam(&a.plant)?;
     let law = law(a)?;
     let opts = a.run.options()?;
@@ -415,9 +431,9 @@ fn simulate_n<const N: usize>(
     beam: &Beam,
     law: Law,
     opts: &SimOptions,
-) -> Result<SimResult, String> {
-    let model = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
-    simulate(&model, law, opts).map_err(|e| e.to_string())
+) -> anyhow::Result<SimResult> {
+    let model = ModalModel::<N>::try_build(beam)?;
+    simulate(&model, law, opts).map_err(anyhow::Error::from)
 }
 
 fn gains_json(law: &Law) -> serde_json::Value {

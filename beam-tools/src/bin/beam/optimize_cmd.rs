@@ -2,6 +2,7 @@
 //! baseline, optionally written into the gain table.
 
 use crate::{beam, named, PlantArgs};
+use anyhow::{anyhow, bail, Context};
 use beam_tools::optimize::{default_params, full_metrics, optimize, Outcome, Spec};
 use clap::{Args, ValueEnum};
 use gain_table::Gains;
@@ -113,7 +114,7 @@ fn parse_hold(s: &str) -> Result<(f64, f64), String> {
     Ok((t, d))
 }
 
-pub fn run(a: &OptimizeArgs) -> Result<(), String> {
+pub fn run(a: &OptimizeArgs) -> anyhow::Result<()> {
     let beam = beam(&a.plant)?;
     for (name, v, ok) in [
         ("--w1", a.w1, a.w1 >= 0.0),
@@ -126,27 +127,24 @@ pub fn run(a: &OptimizeArgs) -> Result<(), String> {
         ),
     ] {
         if !(v.is_finite() && ok) {
-            return Err(format!("{name} {v} is out of range"));
+            bail!("{name} {v} is out of range");
         }
     }
     if a.samples == 0 || a.samples > 100_000 || a.starts > 64 || a.local_evals > 100_000 {
-        return Err(
-            "--samples must be 1..=100000, --starts at most 64, --local-evals at most 100000"
-                .into(),
-        );
+        bail!("--samples must be 1..=100000, --starts at most 64, --local-evals at most 100000");
     }
     with_modes!(a.plant.modes, run_n(&beam, a))
 }
 
-fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> Result<(), String> {
-    let model = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
+fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
+    let model = ModalModel::<N>::try_build(beam)?;
     let kind = a.controller;
     if a.model_terms && kind != LawKind::SmcStrain {
-        return Err("--model-terms applies to --controller smc-strain only".into());
+        bail!("--model-terms applies to --controller smc-strain only");
     }
     let mut params = default_params(kind, &model);
     for b in &a.bounds {
-        let err = || format!("--bound {b}: expected NAME=LO:HI with LO < HI");
+        let err = || anyhow!("--bound {b}: expected NAME=LO:HI with LO < HI");
         let (name, range) = b.split_once('=').ok_or_else(err)?;
         let (lo, hi) = range.split_once(':').ok_or_else(err)?;
         let (lo, hi): (f64, f64) = (
@@ -156,12 +154,12 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> Result<(), String> {
         let p = params
             .iter_mut()
             .find(|p| p.name == name)
-            .ok_or_else(|| format!("--bound {b}: {name} is not a gain of {}", kind.name()))?;
+            .with_context(|| format!("--bound {b}: {name} is not a gain of {}", kind.name()))?;
         if !(lo.is_finite() && hi.is_finite() && lo < hi) || (p.log && lo <= 0.0) {
-            return Err(format!(
+            bail!(
                 "--bound {b}: needs finite LO < HI{}",
                 if p.log { ", LO > 0" } else { "" }
-            ));
+            );
         }
         (p.lo, p.hi) = (lo, hi);
     }
@@ -252,15 +250,15 @@ fn write_row(
     o: &Outcome,
     a: &OptimizeArgs,
     modes: usize,
-) -> Result<(), String> {
+) -> anyhow::Result<()> {
     if !o.best.feasible() {
-        return Err(format!(
+        bail!(
             "{}: not written: no gains met the constraints",
             path.display()
-        ));
+        );
     }
     let mut rows = if path.exists() {
-        gain_table::load(path).map_err(|e| e.to_string())?
+        gain_table::load(path)?
     } else {
         Vec::new()
     };
@@ -299,9 +297,9 @@ fn write_row(
     };
     gain_table::upsert(&mut rows, row);
     let text = gain_table::render(&rows);
-    gain_table::parse(&text, &path.display().to_string()).map_err(|e| e.to_string())?;
+    gain_table::parse(&text, &path.display().to_string())?;
     beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
-        .map_err(|e| format!("{}: {e}", path.display()))
+        .with_context(|| path.display().to_string())
 }
 
 fn report(
@@ -311,7 +309,7 @@ fn report(
     base: &Metrics,
     a: &OptimizeArgs,
     seconds: f64,
-) -> Result<(), String> {
+) -> anyhow::Result<()> {
     let b = &o.best;
     let gains: serde_json::Map<String, serde_json::Value> = spec
         .params

@@ -2,6 +2,7 @@
 //! `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
 
 use crate::{named, PlantArgs, RunArgs};
+use anyhow::{anyhow, bail, Context};
 use beam_tools::files as io;
 use beam_tools::pil_host::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
 use beam_tools::telemetry::{self, Decoded};
@@ -33,7 +34,7 @@ pub struct PilArgs {
     /// Seconds before QEMU is killed.
     #[arg(long, default_value_t = 120, value_parser = clap::value_parser!(u32).range(1..=3600))]
     timeout: u32,
-    /// The instruction-count plugin [default: built from ../shared/tools/qemu-insn-count].
+    /// The instruction-count plugin [default: built with gcc from beam-tools/qemu-plugin].
     #[arg(long, value_name = "SO")]
     insn_plugin: Option<PathBuf>,
     /// Do not count instructions.
@@ -44,14 +45,17 @@ pub struct PilArgs {
     telemetry: Option<PathBuf>,
 }
 
-pub fn run(a: &PilArgs) -> Result<(), String> {
+pub fn run(a: &PilArgs) -> anyhow::Result<()> {
     let opts = a.run.options()?;
     let beam = crate::beam(&a.plant)?;
     let payload_kg = beam.params().tip_mass_kg as f32;
     let plugin = match (&a.insn_plugin, a.no_insn_count) {
         (_, true) => None,
         (Some(p), false) => Some(p.clone()),
-        (None, false) => Some(build_plugin(&paths::insn_tool(), &paths::plugin_dir())?),
+        (None, false) => Some(build_plugin(
+            &paths::insn_plugin_src(),
+            &paths::plugin_dir(),
+        )?),
     };
     let cfg = PilConfig {
         elf: a.elf.clone().unwrap_or_else(paths::pil_elf),
@@ -62,15 +66,15 @@ pub fn run(a: &PilArgs) -> Result<(), String> {
         payload_kg,
     };
     let law = law_for(cfg.controller, payload_kg)
-        .ok_or_else(|| format!("the gain table has no `{}` rows", cfg.controller))?;
+        .with_context(|| format!("the gain table has no `{}` rows", cfg.controller))?;
     let out = with_modes!(a.plant.modes, pil_n(&beam, &cfg, &opts))?;
     if let Some(path) = &a.telemetry {
         let rows = telemetry::first_move(&out.telemetry.rows)
-            .ok_or("the drive's telemetry shows no move")?;
+            .context("the drive's telemetry shows no move")?;
         io::write_atomically(path, |w| {
             telemetry::write_csv(rows, 1e-3, w).map_err(std::io::Error::other)
         })
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .with_context(|| path.display().to_string())?;
     }
     let preset = a.plant.preset.name();
     let title = format!(
@@ -124,9 +128,9 @@ fn pil_n<const N: usize>(
     beam: &Beam,
     cfg: &PilConfig,
     opts: &SimOptions,
-) -> Result<PilOutcome, String> {
-    let model = ModalModel::<N>::try_build(beam).map_err(|e| e.to_string())?;
-    run_pil(Plant::new(model), cfg, opts)
+) -> anyhow::Result<PilOutcome> {
+    let model = ModalModel::<N>::try_build(beam)?;
+    Ok(run_pil(Plant::new(model), cfg, opts)?)
 }
 
 #[derive(Args)]
@@ -150,32 +154,32 @@ pub struct TelemetryArgs {
     out: PathBuf,
 }
 
-pub fn telemetry(a: &TelemetryArgs) -> Result<(), String> {
+pub fn telemetry(a: &TelemetryArgs) -> anyhow::Result<()> {
     if !(a.ts.is_finite() && a.ts > 0.0 && a.ts <= 1.0) {
-        return Err(format!("--ts {} must be a period in (0, 1] s", a.ts));
+        bail!("--ts {} must be a period in (0, 1] s", a.ts);
     }
-    let bytes = std::fs::read(&a.input).map_err(|e| format!("{}: {e}", a.input.display()))?;
+    let bytes = std::fs::read(&a.input).with_context(|| a.input.display().to_string())?;
     let decoded: Decoded = if a.text {
         let text = String::from_utf8(bytes).map_err(|_| {
-            format!(
+            anyhow!(
                 "{}: not UTF-8 text (drop --text for raw defmt)",
                 a.input.display()
             )
         })?;
-        telemetry::parse_text(&text).map_err(|e| format!("{}: {e}", a.input.display()))?
+        telemetry::parse_text(&text).with_context(|| a.input.display().to_string())?
     } else {
         let elf_path = a
             .elf
             .as_ref()
-            .ok_or("--elf is needed to decode raw defmt")?;
-        let elf = std::fs::read(elf_path).map_err(|e| format!("{}: {e}", elf_path.display()))?;
-        telemetry::decode_defmt(&elf, &bytes).map_err(|e| format!("{}: {e}", a.input.display()))?
+            .context("--elf is needed to decode raw defmt")?;
+        let elf = std::fs::read(elf_path).with_context(|| elf_path.display().to_string())?;
+        telemetry::decode_defmt(&elf, &bytes).with_context(|| a.input.display().to_string())?
     };
     let rows = if a.all {
         &decoded.rows[..]
     } else {
         telemetry::first_move(&decoded.rows).ok_or_else(|| {
-            format!(
+            anyhow!(
                 "{}: no move in {} telemetry rows (--all writes them anyway)",
                 a.input.display(),
                 decoded.rows.len()
@@ -183,13 +187,12 @@ pub fn telemetry(a: &TelemetryArgs) -> Result<(), String> {
         })?
     };
     if rows.is_empty() {
-        return Err(format!("{}: no telemetry rows", a.input.display()));
+        bail!("{}: no telemetry rows", a.input.display());
     }
     let mut csv = vec![];
-    telemetry::write_csv(rows, a.ts, &mut csv)
-        .map_err(|e| format!("{}: {e}", a.input.display()))?;
+    telemetry::write_csv(rows, a.ts, &mut csv).with_context(|| a.input.display().to_string())?;
     io::write_atomically(&a.out, |w| w.write_all(&csv))
-        .map_err(|e| format!("{}: {e}", a.out.display()))?;
+        .with_context(|| a.out.display().to_string())?;
     eprintln!(
         "{} rows written to {} ({} other messages, {} malformed frames skipped)",
         rows.len(),

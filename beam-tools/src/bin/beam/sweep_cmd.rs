@@ -2,6 +2,7 @@
 //! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
 
 use crate::{beam, default_law, named, PlantArgs};
+use anyhow::{bail, Context};
 use beam_tools::plot::{histograms, HistogramPanel};
 use beam_tools::sweep::{percentiles, sweep, Case, SweepSpec};
 use clap::Args;
@@ -58,23 +59,18 @@ const SUMMARY: [(&str, Pick); 6] = [
     }),
 ];
 
-pub fn run(a: &SweepArgs) -> Result<(), String> {
+pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     if a.plant.tip_mass.is_some() {
-        return Err(
-            "--tip-mass does not apply to sweep: payloads are drawn up to --payload-max".into(),
-        );
+        bail!("--tip-mass does not apply to sweep: payloads are drawn up to --payload-max");
     }
     if !(a.spread.is_finite() && (0.0..0.9).contains(&a.spread)) {
-        return Err(format!("--spread {} must be in [0, 0.9)", a.spread));
+        bail!("--spread {} must be in [0, 0.9)", a.spread);
     }
     if !(a.payload_max.is_finite() && (0.0..=1.0).contains(&a.payload_max)) {
-        return Err(format!(
-            "--payload-max {} must be in [0, 1] kg",
-            a.payload_max
-        ));
+        bail!("--payload-max {} must be in [0, 1] kg", a.payload_max);
     }
     if a.cases == 0 || a.cases > 1_000_000 {
-        return Err(format!("--cases {} must be 1..=1000000", a.cases));
+        bail!("--cases {} must be 1..=1000000", a.cases);
     }
     if let Some(path) = &a.plot {
         beam_tools::plot::check_extension(path)?;
@@ -96,7 +92,7 @@ pub fn run(a: &SweepArgs) -> Result<(), String> {
     let seconds = started.elapsed().as_secs_f64();
     if let Some(path) = &a.csv {
         beam_tools::files::write_atomically(path, |w| write_csv(&cases, w))
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+            .with_context(|| path.display().to_string())?;
     }
     if let Some(path) = &a.plot {
         let panels = [

@@ -1,0 +1,103 @@
+/*
+ * tick_insns: a QEMU TCG plugin that counts the guest instructions retired between two marker
+ * functions of the firmware, `insn_mark_start` and `insn_mark_end`, and prints one line
+ *
+ *     tick-insns <count>
+ *
+ * per start/end pair to QEMU's log (`-d plugin -D FILE`). `beam pil` brackets each call of
+ * `Drive::tick` in the PIL firmware with the markers, so every tick gets its exact, repeatable
+ * cost in instructions (QEMU does not model the Cortex-M cycle counter).
+ *
+ * How: every translated instruction gets an inline "add 1" on a 64-bit counter; the first
+ * instruction of each marker function also gets a callback, which runs before that
+ * instruction's add. The start callback remembers the counter and the end callback prints
+ * the difference, so a window counts the start marker's body, everything called between the
+ * markers, and the call of the end marker, but not the end marker's body.
+ *
+ * Written against QEMU's plugin API version 1 (Debian bookworm's qemu-system-arm 7.2). Debian
+ * ships no qemu-plugin.h, so the few declarations used are written out below, as QEMU's
+ * include/qemu/qemu-plugin.h defines them for that version.
+ */
+#include <inttypes.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+/* ---- the part of QEMU's plugin API this plugin uses (API version 1) ---- */
+typedef uint64_t qemu_plugin_id_t;
+typedef struct qemu_info_t qemu_info_t;
+struct qemu_plugin_tb;
+struct qemu_plugin_insn;
+enum qemu_plugin_cb_flags { QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_CB_R_REGS, QEMU_PLUGIN_CB_RW_REGS };
+enum qemu_plugin_op { QEMU_PLUGIN_INLINE_ADD_U64 };
+typedef void (*tb_trans_cb)(qemu_plugin_id_t id, struct qemu_plugin_tb *tb);
+typedef void (*vcpu_udata_cb)(unsigned int vcpu_index, void *userdata);
+void qemu_plugin_register_vcpu_tb_trans_cb(qemu_plugin_id_t id, tb_trans_cb cb);
+size_t qemu_plugin_tb_n_insns(const struct qemu_plugin_tb *tb);
+struct qemu_plugin_insn *qemu_plugin_tb_get_insn(const struct qemu_plugin_tb *tb, size_t idx);
+const char *qemu_plugin_insn_symbol(const struct qemu_plugin_insn *insn);
+void qemu_plugin_register_vcpu_insn_exec_cb(struct qemu_plugin_insn *insn, vcpu_udata_cb cb,
+                                            enum qemu_plugin_cb_flags flags, void *userdata);
+void qemu_plugin_register_vcpu_insn_exec_inline(struct qemu_plugin_insn *insn,
+                                                enum qemu_plugin_op op, void *ptr, uint64_t imm);
+void qemu_plugin_outs(const char *string);
+/* ----------------------------------------------------------------------- */
+
+__attribute__((visibility("default"))) int qemu_plugin_version = 1;
+
+/* One emulated core (the Cortex-M4), so plain globals are enough. */
+static uint64_t retired;     /* instructions retired so far */
+static uint64_t window_start; /* `retired` when the start marker ran */
+static bool in_window;
+
+static void on_mark_start(unsigned int vcpu, void *userdata) {
+    (void)vcpu;
+    (void)userdata;
+    window_start = retired;
+    in_window = true;
+}
+
+static void on_mark_end(unsigned int vcpu, void *userdata) {
+    (void)vcpu;
+    (void)userdata;
+    if (!in_window) {
+        return; /* an end without a start: nothing to report */
+    }
+    in_window = false;
+    char line[48];
+    snprintf(line, sizeof line, "tick-insns %" PRIu64 "\n", retired - window_start);
+    qemu_plugin_outs(line);
+}
+
+/* True when `insn` is the first instruction of the function named `name`. QEMU reports the
+ * symbol only for an instruction at a symbol's address. */
+static bool starts(const struct qemu_plugin_insn *insn, const char *name) {
+    const char *sym = qemu_plugin_insn_symbol(insn);
+    return sym != NULL && strcmp(sym, name) == 0;
+}
+
+static void on_translate(qemu_plugin_id_t id, struct qemu_plugin_tb *tb) {
+    (void)id;
+    size_t n = qemu_plugin_tb_n_insns(tb);
+    for (size_t i = 0; i < n; i++) {
+        struct qemu_plugin_insn *insn = qemu_plugin_tb_get_insn(tb, i);
+        if (starts(insn, "insn_mark_start")) {
+            qemu_plugin_register_vcpu_insn_exec_cb(insn, on_mark_start, QEMU_PLUGIN_CB_NO_REGS, NULL);
+        } else if (starts(insn, "insn_mark_end")) {
+            qemu_plugin_register_vcpu_insn_exec_cb(insn, on_mark_end, QEMU_PLUGIN_CB_NO_REGS, NULL);
+        }
+        qemu_plugin_register_vcpu_insn_exec_inline(insn, QEMU_PLUGIN_INLINE_ADD_U64, &retired, 1);
+    }
+}
+
+__attribute__((visibility("default"))) int qemu_plugin_install(qemu_plugin_id_t id,
+                                                                const qemu_info_t *info,
+                                                                int argc, char **argv) {
+    (void)info;
+    (void)argc;
+    (void)argv;
+    qemu_plugin_register_vcpu_tb_trans_cb(id, on_translate);
+    return 0;
+}
