@@ -14,6 +14,12 @@
  * the difference, so a window counts the start marker's body, everything called between the
  * markers, and the call of the end marker, but not the end marker's body.
  *
+ * With the argument `profile=on` (`-plugin libtick_insns.so,profile=on`) it also counts, per
+ * instruction address, how often each instruction ran inside a window, and prints
+ * `tick-insns-at 0xADDR N` lines at exit; `profile.py` turns them into a table by (inlined)
+ * function with the firmware's debug information. Profiling registers a callback on every
+ * instruction and runs several times slower; the per-tick lines are the same either way.
+ *
  * Written against QEMU's plugin API version 1 (Debian bookworm's qemu-system-arm 7.2). Debian
  * ships no qemu-plugin.h, so the few declarations used are written out below, as QEMU's
  * include/qemu/qemu-plugin.h defines them for that version.
@@ -23,6 +29,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* ---- the part of QEMU's plugin API this plugin uses (API version 1) ---- */
@@ -34,14 +41,17 @@ enum qemu_plugin_cb_flags { QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_CB_R_REGS, QEMU_
 enum qemu_plugin_op { QEMU_PLUGIN_INLINE_ADD_U64 };
 typedef void (*tb_trans_cb)(qemu_plugin_id_t id, struct qemu_plugin_tb *tb);
 typedef void (*vcpu_udata_cb)(unsigned int vcpu_index, void *userdata);
+typedef void (*atexit_cb)(qemu_plugin_id_t id, void *userdata);
 void qemu_plugin_register_vcpu_tb_trans_cb(qemu_plugin_id_t id, tb_trans_cb cb);
 size_t qemu_plugin_tb_n_insns(const struct qemu_plugin_tb *tb);
 struct qemu_plugin_insn *qemu_plugin_tb_get_insn(const struct qemu_plugin_tb *tb, size_t idx);
 const char *qemu_plugin_insn_symbol(const struct qemu_plugin_insn *insn);
+uint64_t qemu_plugin_insn_vaddr(const struct qemu_plugin_insn *insn);
 void qemu_plugin_register_vcpu_insn_exec_cb(struct qemu_plugin_insn *insn, vcpu_udata_cb cb,
                                             enum qemu_plugin_cb_flags flags, void *userdata);
 void qemu_plugin_register_vcpu_insn_exec_inline(struct qemu_plugin_insn *insn,
                                                 enum qemu_plugin_op op, void *ptr, uint64_t imm);
+void qemu_plugin_register_atexit_cb(qemu_plugin_id_t id, atexit_cb cb, void *userdata);
 void qemu_plugin_outs(const char *string);
 /* ----------------------------------------------------------------------- */
 
@@ -51,6 +61,33 @@ __attribute__((visibility("default"))) int qemu_plugin_version = 1;
 static uint64_t retired;     /* instructions retired so far */
 static uint64_t window_start; /* `retired` when the start marker ran */
 static bool in_window;
+
+/* Profiling: executions per instruction address inside windows, for flash at 0x0800_0000
+ * (Thumb instructions are 2-byte aligned; 2 MiB covers the STM32F405's 1 MiB of flash). */
+#define FLASH_BASE 0x08000000u
+#define PROFILE_SLOTS (1u << 20)
+static bool profiling;
+static uint64_t *profile;
+
+static void on_insn(unsigned int vcpu, void *userdata) {
+    (void)vcpu;
+    if (in_window) {
+        profile[(uintptr_t)userdata]++;
+    }
+}
+
+static void print_profile(qemu_plugin_id_t id, void *userdata) {
+    (void)id;
+    (void)userdata;
+    char line[64];
+    for (size_t i = 0; i < PROFILE_SLOTS; i++) {
+        if (profile[i] != 0) {
+            snprintf(line, sizeof line, "tick-insns-at 0x%08zx %" PRIu64 "\n",
+                     (size_t)FLASH_BASE + 2 * i, profile[i]);
+            qemu_plugin_outs(line);
+        }
+    }
+}
 
 static void on_mark_start(unsigned int vcpu, void *userdata) {
     (void)vcpu;
@@ -89,6 +126,11 @@ static void on_translate(qemu_plugin_id_t id, struct qemu_plugin_tb *tb) {
             qemu_plugin_register_vcpu_insn_exec_cb(insn, on_mark_end, QEMU_PLUGIN_CB_NO_REGS, NULL);
         }
         qemu_plugin_register_vcpu_insn_exec_inline(insn, QEMU_PLUGIN_INLINE_ADD_U64, &retired, 1);
+        uint64_t slot = (qemu_plugin_insn_vaddr(insn) - FLASH_BASE) / 2;
+        if (profiling && slot < PROFILE_SLOTS) {
+            qemu_plugin_register_vcpu_insn_exec_cb(insn, on_insn, QEMU_PLUGIN_CB_NO_REGS,
+                                                   (void *)(uintptr_t)slot);
+        }
     }
 }
 
@@ -96,8 +138,21 @@ __attribute__((visibility("default"))) int qemu_plugin_install(qemu_plugin_id_t 
                                                                 const qemu_info_t *info,
                                                                 int argc, char **argv) {
     (void)info;
-    (void)argc;
-    (void)argv;
+    for (int i = 0; i < argc; i++) {
+        if (strcmp(argv[i], "profile=on") == 0) {
+            profiling = true;
+        } else {
+            fprintf(stderr, "tick_insns: unknown argument `%s` (expected profile=on)\n", argv[i]);
+            return -1;
+        }
+    }
+    if (profiling) {
+        profile = calloc(PROFILE_SLOTS, sizeof *profile);
+        if (profile == NULL) {
+            return -1;
+        }
+        qemu_plugin_register_atexit_cb(id, print_profile, NULL);
+    }
     qemu_plugin_register_vcpu_tb_trans_cb(id, on_translate);
     return 0;
 }

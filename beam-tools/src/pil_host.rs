@@ -33,6 +33,8 @@ pub struct PilConfig {
     pub qemu: String,
     /// The instruction-count plugin, if counting.
     pub plugin: Option<PathBuf>,
+    /// Run the plugin with `profile=on` (counts per instruction address; slower).
+    pub profile: bool,
     /// Seconds before QEMU is killed.
     pub timeout_s: u32,
     /// The law the drive runs.
@@ -69,6 +71,8 @@ pub struct PilOutcome {
     pub identical: bool,
     /// Instructions per tick, when counted.
     pub insns: Option<InsnStats>,
+    /// The plugin's log as it wrote it (per-address lines too when profiling).
+    pub insn_log: String,
     /// The drive's defmt telemetry.
     pub telemetry: Decoded,
 }
@@ -107,8 +111,12 @@ impl PilDrive {
             .args(["-display", "none", "-monitor", "none", "-serial", "null"])
             .args(["-semihosting-config", "enable=on,target=native"]);
         if let Some(plugin) = &cfg.plugin {
+            let mut arg = plugin.clone().into_os_string();
+            if cfg.profile {
+                arg.push(",profile=on");
+            }
             cmd.arg("-plugin")
-                .arg(plugin)
+                .arg(arg)
                 .args(["-d", "plugin", "-D"])
                 .arg(&log);
         }
@@ -525,6 +533,7 @@ pub fn run_pil<const N: usize>(
         max_ulps,
         identical,
         insns,
+        insn_log: insn_text,
         telemetry,
     })
 }

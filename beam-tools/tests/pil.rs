@@ -84,6 +84,7 @@ fn config(controller: LawKind, plugin: bool) -> PilConfig {
         elf: pil_elf(),
         qemu: "qemu-system-arm".into(),
         plugin,
+        profile: false,
         timeout_s: 300,
         controller,
         payload_kg: 0.0,

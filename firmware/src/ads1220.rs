@@ -162,6 +162,18 @@ impl<SPI: SpiDevice, DRDY: InputPin> Ads1220<SPI, DRDY> {
     }
 }
 
+impl<SPI: SpiDevice, DRDY: InputPin> crate::drive::StrainSensor for Ads1220<SPI, DRDY> {
+    type Error = Error<SPI::Error, DRDY::Error>;
+
+    fn poll(&mut self) -> Result<Sample, Self::Error> {
+        Ads1220::poll(self)
+    }
+
+    fn last(&self) -> Sample {
+        Ads1220::last(self)
+    }
+}
+
 /// A 24-bit two's-complement result, MSB first, as an `i32`.
 pub fn code_from_bytes(b: [u8; 3]) -> i32 {
     // Put the 24 bits at the top of an i32 and shift back: the shift extends the sign.

@@ -1,13 +1,15 @@
 //! The motor amplifier as a torque actuator: PWM duty for the magnitude, a direction pin for
-//! the sign, an enable pin that must be high for any current to flow.
+//! the sign, an enable pin that must be high for any current to flow, and the amplifier's
+//! own /FAULT output (active low, open drain).
 //!
 //! The amplifier is a current (torque) mode drive: its current set-point is proportional to
 //! the PWM duty, so torque = duty * full-scale torque. That one scaling lives in
 //! [`TorqueScale`]; nothing else in the firmware converts torque to duty. Generic over
-//! `embedded-hal` 1.0's [`SetDutyCycle`] and [`OutputPin`], so the board passes its timer
-//! channel and GPIOs and the host tests pass mocks.
+//! `embedded-hal` 1.0's [`SetDutyCycle`], [`OutputPin`] and [`InputPin`], so the board passes
+//! its timer channel and GPIOs and the host tests pass mocks; the drive sees it as an
+//! [`Actuator`](crate::drive::Actuator).
 
-use embedded_hal::digital::OutputPin;
+use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_hal::pwm::SetDutyCycle;
 use model_core::{Mode, TorqueCommand};
 
@@ -32,12 +34,21 @@ impl TorqueScale {
     /// Torques past full scale saturate; a non-finite torque gives zero duty.
     pub fn duty(&self, torque_nm: f32, max_duty: u16) -> Drive {
         let fraction = if torque_nm.is_finite() && self.full_scale_nm > 0.0 {
-            (libm::fabsf(torque_nm) / self.full_scale_nm).min(1.0)
+            let f = libm::fabsf(torque_nm) / self.full_scale_nm;
+            // A comparison, not `min`: that is a library call on the Cortex-M4F.
+            if f > 1.0 {
+                1.0
+            } else {
+                f
+            }
         } else {
             0.0
         };
         Drive {
-            duty: libm::roundf(fraction * max_duty as f32) as u16,
+            // Round half up by adding 0.5 and truncating (the value is never negative, and
+            // `as` saturates): the same result as `roundf` except within an ulp of a half,
+            // without its library call on the tick.
+            duty: (fraction * max_duty as f32 + 0.5) as u16,
             positive: torque_nm >= 0.0,
         }
     }
@@ -54,12 +65,13 @@ pub enum Error<P, D, E> {
     Enable(E),
 }
 
-/// The amplifier's three inputs.
+/// The amplifier's three inputs and its fault output.
 #[derive(Debug)]
-pub struct Amplifier<PWM, DIR, EN> {
+pub struct Amplifier<PWM, DIR, EN, FLT> {
     pwm: PWM,
     dir: DIR,
     en: EN,
+    fault: FLT,
     scale: TorqueScale,
 }
 
@@ -70,18 +82,20 @@ pub type AmpError<PWM, DIR, EN> = Error<
     <EN as embedded_hal::digital::ErrorType>::Error,
 >;
 
-impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin> Amplifier<PWM, DIR, EN> {
+impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin> Amplifier<PWM, DIR, EN, FLT> {
     /// Takes the signals and puts the amplifier in its safe state (disabled, zero duty).
     pub fn new(
         pwm: PWM,
         dir: DIR,
         en: EN,
+        fault: FLT,
         scale: TorqueScale,
     ) -> Result<Self, AmpError<PWM, DIR, EN>> {
         let mut amp = Self {
             pwm,
             dir,
             en,
+            fault,
             scale,
         };
         amp.disable()?;
@@ -110,9 +124,33 @@ impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin> Amplifier<PWM, DIR, EN> {
         self.en.set_high().map_err(Error::Enable)
     }
 
+    /// The amplifier reports a fault. Its /FAULT output is active low and open drain, so a
+    /// broken wire or an unreadable pin reads as a fault too.
+    pub fn faulted(&mut self) -> bool {
+        self.fault.is_high().map(|high| !high).unwrap_or(true)
+    }
+
     /// The torque scaling.
     pub fn scale(&self) -> TorqueScale {
         self.scale
+    }
+}
+
+impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin> crate::drive::Actuator
+    for Amplifier<PWM, DIR, EN, FLT>
+{
+    type Error = AmpError<PWM, DIR, EN>;
+
+    fn apply(&mut self, cmd: &TorqueCommand) -> Result<(), Self::Error> {
+        Amplifier::apply(self, cmd)
+    }
+
+    fn disable(&mut self) -> Result<(), Self::Error> {
+        Amplifier::disable(self)
+    }
+
+    fn faulted(&mut self) -> bool {
+        Amplifier::faulted(self)
     }
 }
 
@@ -127,6 +165,30 @@ mod tests {
     const SCALE: TorqueScale = TorqueScale {
         full_scale_nm: 10.0,
     };
+
+    /// A released /FAULT line (these tests drive the outputs).
+    fn released() -> crate::fakes::Line<'static> {
+        crate::fakes::Line(Box::leak(Box::default()))
+    }
+
+    #[test]
+    fn the_fault_line_is_active_low_and_an_unreadable_line_is_a_fault() {
+        let bench = crate::fakes::Bench::new();
+        let mut amp = Amplifier::new(
+            crate::fakes::Pwm(&bench),
+            crate::fakes::Direction(&bench),
+            crate::fakes::Enable(&bench),
+            crate::fakes::Line(&bench),
+            SCALE,
+        )
+        .unwrap();
+        assert!(!amp.faulted());
+        bench.amp_fault.set(true);
+        assert!(amp.faulted());
+        bench.amp_fault.set(false);
+        bench.inputs_broken.set(true);
+        assert!(amp.faulted());
+    }
 
     fn command(mode: Mode, torque_nm: f32) -> TorqueCommand {
         TorqueCommand {
@@ -184,7 +246,8 @@ mod tests {
             Pin::set(State::High),
             Pin::set(State::Low),
         ]);
-        let mut amp = Amplifier::new(pwm.clone(), dir.clone(), en.clone(), SCALE).unwrap();
+        let mut amp =
+            Amplifier::new(pwm.clone(), dir.clone(), en.clone(), released(), SCALE).unwrap();
         amp.apply(&command(Mode::Slewing, -3.0)).unwrap();
         amp.apply(&command(Mode::Holding, 12.0)).unwrap();
         amp.apply(&TorqueCommand {
@@ -202,7 +265,8 @@ mod tests {
         let mut pwm = PwmMock::new(&[Pwm::set_duty_cycle(0), Pwm::set_duty_cycle(0)]);
         let mut dir = PinMock::new(&[]);
         let mut en = PinMock::new(&[Pin::set(State::Low), Pin::set(State::Low)]);
-        let mut amp = Amplifier::new(pwm.clone(), dir.clone(), en.clone(), SCALE).unwrap();
+        let mut amp =
+            Amplifier::new(pwm.clone(), dir.clone(), en.clone(), released(), SCALE).unwrap();
         amp.apply(&command(Mode::Idle, 3.0)).unwrap();
         pwm.done();
         dir.done();
@@ -215,7 +279,7 @@ mod tests {
         let mut pwm = PwmMock::new(&[Pwm::set_duty_cycle(0)]);
         let mut dir = PinMock::new(&[]);
         let mut en = PinMock::new(&[Pin::set(State::Low).with_error(err.clone())]);
-        let result = Amplifier::new(pwm.clone(), dir.clone(), en.clone(), SCALE);
+        let result = Amplifier::new(pwm.clone(), dir.clone(), en.clone(), released(), SCALE);
         assert!(matches!(result, Err(Error::Enable(_))));
         pwm.done();
         dir.done();

@@ -71,9 +71,12 @@ pub type Direction = Pin<'B', 12, Output<PushPull>>;
 pub type Enable = Pin<'B', ENABLE_PIN, Output<PushPull>>;
 /// The amplifier's fault output.
 pub type AmpFault = Pin<'B', 14, Input>;
+/// The bridge ADC on this board.
+pub type BoardAdc = Ads1220<AdcBus, AdcReady>;
+/// The amplifier on this board.
+pub type BoardAmplifier = Amplifier<TorquePwm, Direction, Enable, AmpFault>;
 /// The drive on this board.
-pub type BoardDrive =
-    Drive<MOVE_KNOTS, Encoder, AdcBus, AdcReady, TorquePwm, Direction, Enable, AmpFault>;
+pub type BoardDrive = Drive<MOVE_KNOTS, Encoder, BoardAdc, BoardAmplifier>;
 /// The operator's buttons.
 pub type BoardOperator = Operator<MOVE_KNOTS, 2, Pin<'C', 0, Input>, Pin<'C', 1, Input>>;
 
@@ -121,10 +124,12 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
     let (_, (pwm, ..)) = dp.TIM1.pwm_hz(PWM_HZ.Hz(), &mut rcc);
     let mut pwm: TorquePwm = pwm.with(gpioa.pa8);
     pwm.enable();
+    let fault: AmpFault = gpiob.pb14.into_pull_up_input();
     let amp = Amplifier::new(
         pwm,
         direction,
         enable,
+        fault,
         TorqueScale {
             full_scale_nm: FULL_SCALE_TORQUE_NM,
         },
@@ -167,13 +172,7 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
 
     let controller = config::build_controller().map_err(BringUpError::Config)?;
     let sequence = config::sequence().map_err(BringUpError::Config)?;
-    let mut drive = Drive::new(
-        controller,
-        encoder,
-        adc,
-        amp,
-        gpiob.pb14.into_pull_up_input(),
-    );
+    let mut drive = Drive::new(controller, encoder, adc, amp);
     if adc_ok.is_err() {
         drive.report_driver_failure();
     }

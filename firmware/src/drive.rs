@@ -1,24 +1,47 @@
 //! One tick of the drive, over generic sensors and actuator: read encoder, strain and the
-//! amplifier's fault line, call model-core's `step`, write the torque, return telemetry.
+//! actuator's fault line, call model-core's `step`, write the torque, return telemetry
+//! (docs/design.md, section 8).
 //!
 //! This is the whole of the firmware's per-tick work apart from the board's timer flag and
-//! watchdog. It is generic over the encoder counter, the bridge converter's bus and pins and
-//! the amplifier's signals, so the same code runs on the STM32F405 board and in host tests
-//! against mocks. It never blocks, allocates or panics: every driver error becomes a latched
-//! [`model_core::FaultFlags::DRIVER`] fault and the amplifier is disabled.
+//! watchdog. It is generic over three roles, each a small trait: a [`QuadratureCounter`], a
+//! [`StrainSensor`] (the ADS1220 driver) and an [`Actuator`] (the amplifier driver), so the
+//! same code runs on the STM32F405 board, in the PIL drive and in host tests (both over
+//! [`crate::fakes`]). It never blocks, allocates or panics: every driver error becomes a
+//! latched [`model_core::FaultFlags::DRIVER`] fault and the actuator is disabled.
 
-use crate::ads1220::{Ads1220, Sample};
-use crate::amplifier::Amplifier;
-use embedded_hal::digital::{InputPin, OutputPin};
-use embedded_hal::pwm::SetDutyCycle;
-use embedded_hal::spi::SpiDevice;
-use model_core::{CommandError, Controller, FaultFlags, Mode, RawMeasurement, Spline};
+pub use crate::ads1220::Sample;
+use model_core::{
+    CommandError, Controller, FaultFlags, Mode, RawMeasurement, Spline, TorqueCommand,
+};
 
 /// A hardware quadrature counter. embedded-hal 1.0 has no encoder trait, so this is the one
 /// the drive needs: the raw counter value, which wraps at the counter's width.
 pub trait QuadratureCounter {
     /// The counter now.
     fn count(&mut self) -> u32;
+}
+
+/// The strain bridge's converter, polled once per tick.
+pub trait StrainSensor {
+    /// A bus or pin failure.
+    type Error;
+    /// The newest sample, or the last one with its stale count raised when no new conversion
+    /// is ready. Never blocks.
+    fn poll(&mut self) -> Result<Sample, Self::Error>;
+    /// The last sample, without touching the hardware.
+    fn last(&self) -> Sample;
+}
+
+/// The torque actuator: the motor amplifier.
+pub trait Actuator {
+    /// A signal that could not be set.
+    type Error;
+    /// Applies one tick's command: its torque while slewing or holding, disabled otherwise.
+    fn apply(&mut self, cmd: &TorqueCommand) -> Result<(), Self::Error>;
+    /// Removes the torque at once.
+    fn disable(&mut self) -> Result<(), Self::Error>;
+    /// The actuator reports a fault (a line that cannot be read counts as one).
+    fn faulted(&mut self) -> bool;
 }
 
 /// Consecutive ticks without a new strain conversion before the data counts as lost. At
@@ -82,42 +105,31 @@ impl Telemetry {
 }
 
 /// The controller with its sensors and actuator.
-pub struct Drive<const K: usize, Q, SPI, DRDY, PWM, DIR, EN, FLT> {
+pub struct Drive<const K: usize, Q, S, A> {
     controller: Controller<K>,
     encoder: Q,
-    adc: Ads1220<SPI, DRDY>,
-    amp: Amplifier<PWM, DIR, EN>,
-    amp_fault: FLT,
+    strain: S,
+    actuator: A,
     /// A driver failed on the previous tick (reported to `step` on this one).
     driver_failed: bool,
     tick: u32,
 }
 
-impl<const K: usize, Q, SPI, DRDY, PWM, DIR, EN, FLT> Drive<K, Q, SPI, DRDY, PWM, DIR, EN, FLT>
+impl<const K: usize, Q, S, A> Drive<K, Q, S, A>
 where
     Q: QuadratureCounter,
-    SPI: SpiDevice,
-    DRDY: InputPin,
-    PWM: SetDutyCycle,
-    DIR: OutputPin,
-    EN: OutputPin,
-    FLT: InputPin,
+    S: StrainSensor,
+    A: Actuator,
 {
-    /// Puts the parts together. The converter must already be initialised and the amplifier
-    /// disabled (as [`Amplifier::new`] leaves it); the controller starts idle.
-    pub fn new(
-        controller: Controller<K>,
-        encoder: Q,
-        adc: Ads1220<SPI, DRDY>,
-        amp: Amplifier<PWM, DIR, EN>,
-        amp_fault: FLT,
-    ) -> Self {
+    /// Puts the parts together. The strain sensor must already be initialised and the
+    /// actuator disabled (as [`Amplifier::new`](crate::amplifier::Amplifier::new) leaves
+    /// it); the controller starts idle.
+    pub fn new(controller: Controller<K>, encoder: Q, strain: S, actuator: A) -> Self {
         Self {
             controller,
             encoder,
-            adc,
-            amp,
-            amp_fault,
+            strain,
+            actuator,
             driver_failed: false,
             tick: 0,
         }
@@ -126,13 +138,11 @@ where
     /// One control tick. Never blocks or panics.
     pub fn tick(&mut self) -> Telemetry {
         let encoder_raw = self.encoder.count();
-        let (sample, adc_ok) = match self.adc.poll() {
+        let (sample, adc_ok) = match self.strain.poll() {
             Ok(s) => (s, s.stale_polls <= MAX_STALE_TICKS),
-            Err(_) => (self.adc.last(), false),
+            Err(_) => (self.strain.last(), false),
         };
-        // The amplifier's fault output is active low and open drain: a broken wire or an
-        // unreadable pin reads as a fault.
-        let amp_fault = self.amp_fault.is_high().map(|high| !high).unwrap_or(true);
+        let amp_fault = self.actuator.faulted();
         let raw = RawMeasurement {
             encoder_raw,
             strain_root_code: sample.code,
@@ -140,11 +150,11 @@ where
             driver_fault: self.driver_failed || !adc_ok,
         };
         let cmd = self.controller.step(&raw);
-        self.driver_failed = self.amp.apply(&cmd).is_err();
+        self.driver_failed = self.actuator.apply(&cmd).is_err();
         if self.driver_failed {
             // Best effort: whichever signal still works turns the torque off, and the next
             // tick latches the driver fault.
-            let _ = self.amp.disable();
+            let _ = self.actuator.disable();
         }
         let t = Telemetry {
             tick: self.tick,
@@ -198,6 +208,6 @@ where
 
     /// The last strain sample.
     pub fn last_strain(&self) -> Sample {
-        self.adc.last()
+        self.strain.last()
     }
 }

@@ -11,4 +11,5 @@ pub mod ads1220;
 pub mod amplifier;
 pub mod config;
 pub mod drive;
+pub mod fakes;
 pub mod operator;

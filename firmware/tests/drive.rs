@@ -4,144 +4,39 @@
 //! These check the firmware's glue (what reaches `step`, what reaches the pins), not the
 //! control law, which model-core and host-tests cover.
 
-use embedded_hal::digital::{ErrorType as PinErrorType, InputPin, OutputPin};
-use embedded_hal::pwm::{ErrorType as PwmErrorType, SetDutyCycle};
-use embedded_hal::spi::{ErrorType as SpiErrorType, Operation, SpiDevice};
 use firmware::ads1220::{code_from_bytes, Ads1220};
 use firmware::amplifier::{Amplifier, TorqueScale};
 use firmware::config::{build_controller, sequence, MOVE_KNOTS};
-use firmware::drive::{Command, Drive, QuadratureCounter, Telemetry, MAX_STALE_TICKS};
+use firmware::drive::{Command, Drive, Telemetry, MAX_STALE_TICKS};
+use firmware::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm, MAX_DUTY};
 use model_core::{CommandError, FaultFlags, Mode};
-use std::cell::Cell;
-use std::convert::Infallible;
-use std::rc::Rc;
 
-/// Everything the fakes share with the test.
-#[derive(Default)]
-struct Bench {
-    counter: Cell<u16>,
-    code: Cell<i32>,
-    converting: Cell<bool>,
-    spi_broken: Cell<bool>,
-    amp_fault_low: Cell<bool>,
-    duty: Cell<u16>,
-    dir_high: Cell<bool>,
-    en_high: Cell<bool>,
-}
+type TestDrive = Drive<
+    MOVE_KNOTS,
+    Counter<'static>,
+    Ads1220<Bus<'static>, DataReady<'static>>,
+    Amplifier<Pwm<'static>, Direction<'static>, Enable<'static>, Line<'static>>,
+>;
 
-struct Counter(Rc<Bench>);
-impl QuadratureCounter for Counter {
-    fn count(&mut self) -> u32 {
-        self.0.counter.get() as u32
-    }
-}
-
-struct Bus(Rc<Bench>);
-#[derive(Debug)]
-struct BusError;
-impl embedded_hal::spi::Error for BusError {
-    fn kind(&self) -> embedded_hal::spi::ErrorKind {
-        embedded_hal::spi::ErrorKind::Other
-    }
-}
-impl SpiErrorType for Bus {
-    type Error = BusError;
-}
-impl SpiDevice for Bus {
-    fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), BusError> {
-        if self.0.spi_broken.get() {
-            return Err(BusError);
-        }
-        for op in ops {
-            if let Operation::Read(buf) = op {
-                let b = self.0.code.get().to_be_bytes();
-                buf.copy_from_slice(&b[1..4]);
-            }
-        }
-        Ok(())
-    }
-}
-
-/// DRDY: low (data ready) while the converter converts.
-struct DataReady(Rc<Bench>);
-impl PinErrorType for DataReady {
-    type Error = Infallible;
-}
-impl InputPin for DataReady {
-    fn is_high(&mut self) -> Result<bool, Infallible> {
-        Ok(!self.0.converting.get())
-    }
-    fn is_low(&mut self) -> Result<bool, Infallible> {
-        Ok(self.0.converting.get())
-    }
-}
-
-struct FaultLine(Rc<Bench>);
-impl PinErrorType for FaultLine {
-    type Error = Infallible;
-}
-impl InputPin for FaultLine {
-    fn is_high(&mut self) -> Result<bool, Infallible> {
-        Ok(!self.0.amp_fault_low.get())
-    }
-    fn is_low(&mut self) -> Result<bool, Infallible> {
-        Ok(self.0.amp_fault_low.get())
-    }
-}
-
-struct Pwm(Rc<Bench>);
-impl PwmErrorType for Pwm {
-    type Error = Infallible;
-}
-impl SetDutyCycle for Pwm {
-    fn max_duty_cycle(&self) -> u16 {
-        8400
-    }
-    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
-        self.0.duty.set(duty);
-        Ok(())
-    }
-}
-
-struct Out(Rc<Bench>, fn(&Bench) -> &Cell<bool>);
-impl PinErrorType for Out {
-    type Error = Infallible;
-}
-impl OutputPin for Out {
-    fn set_low(&mut self) -> Result<(), Infallible> {
-        (self.1)(&self.0).set(false);
-        Ok(())
-    }
-    fn set_high(&mut self) -> Result<(), Infallible> {
-        (self.1)(&self.0).set(true);
-        Ok(())
-    }
-}
-
-type TestDrive = Drive<MOVE_KNOTS, Counter, Bus, DataReady, Pwm, Out, Out, FaultLine>;
-
-fn drive() -> (TestDrive, Rc<Bench>) {
-    let b = Rc::new(Bench::default());
+/// A drive on a fresh bench (leaked: each test's bench lives as long as the test process).
+fn drive() -> (TestDrive, &'static Bench) {
+    let b: &'static Bench = Box::leak(Box::default());
     b.converting.set(true);
-    // Fault line released (pulled high), amplifier enabled as soon as something tries.
-    let adc = Ads1220::new(Bus(b.clone()), DataReady(b.clone()));
+    let adc = Ads1220::new(Bus(b), DataReady(b));
     let amp = Amplifier::new(
-        Pwm(b.clone()),
-        Out(b.clone(), |b| &b.dir_high),
-        Out(b.clone(), |b| &b.en_high),
+        Pwm(b),
+        Direction(b),
+        Enable(b),
+        Line(b),
         TorqueScale {
             full_scale_nm: 10.0,
         },
     )
     .unwrap();
-    let d = Drive::new(
-        build_controller().unwrap(),
-        Counter(b.clone()),
-        adc,
-        amp,
-        FaultLine(b.clone()),
-    );
-    (d, b)
+    (
+        Drive::new(build_controller().unwrap(), Counter(b), adc, amp),
+        b,
+    )
 }
 
 fn run(d: &mut TestDrive, ticks: usize) -> Telemetry {
@@ -170,7 +65,7 @@ fn a_move_enables_the_amplifier_and_the_duty_follows_the_torque() {
         let t = d.tick();
         assert_eq!(t.mode, Mode::Slewing);
         assert!(b.en_high.get());
-        let expected = (t.torque_nm.abs() / 10.0 * 8400.0).round() as u16;
+        let expected = (t.torque_nm.abs() / 10.0 * MAX_DUTY as f32).round() as u16;
         assert_eq!(b.duty.get(), expected);
         if t.torque_nm > 0.1 {
             pushed = true;
@@ -188,7 +83,8 @@ fn the_encoder_wraps_through_zero_without_a_jump() {
     // the home position.
     run(&mut d, 1);
     for _ in 0..100 {
-        b.counter.set(b.counter.get().wrapping_sub(40));
+        b.encoder_raw
+            .set(b.encoder_raw.get().wrapping_sub(40) & 0xFFFF);
         let t = d.tick();
         assert_eq!(t.faults, FaultFlags::default());
     }
@@ -236,7 +132,7 @@ fn a_converter_that_stops_latches_a_driver_fault_and_only_clear_fault_clears_it(
 fn a_bus_error_latches_a_driver_fault_at_once() {
     let (mut d, b) = drive();
     run(&mut d, 10);
-    b.spi_broken.set(true);
+    b.bus_broken.set(true);
     let t = run(&mut d, 1);
     assert_eq!(t.mode, Mode::Fault);
     assert!(t.faults.contains(FaultFlags::DRIVER));
@@ -250,7 +146,7 @@ fn the_amplifier_fault_line_turns_the_torque_off_in_the_same_tick() {
     d.command(Command::Move(out)).unwrap();
     run(&mut d, 30);
     assert!(b.en_high.get());
-    b.amp_fault_low.set(true);
+    b.amp_fault.set(true);
     let t = run(&mut d, 1);
     assert_eq!((t.mode, t.torque_nm), (Mode::Fault, 0.0));
     assert!(t.faults.contains(FaultFlags::AMP_FAULT));
@@ -258,9 +154,31 @@ fn the_amplifier_fault_line_turns_the_torque_off_in_the_same_tick() {
 }
 
 #[test]
+fn an_amplifier_pin_that_cannot_be_set_latches_a_driver_fault_with_the_torque_off() {
+    let (mut d, b) = drive();
+    run(&mut d, 10);
+    let [out, _] = sequence().unwrap();
+    d.command(Command::Move(out)).unwrap();
+    run(&mut d, 30);
+    assert!(b.en_high.get());
+    b.outputs_broken.set(true);
+    // The failing write is found after `step`: the torque is reported as zero at once, and
+    // the next tick latches the fault.
+    let t = run(&mut d, 1);
+    assert_eq!((t.mode, t.torque_nm), (Mode::Slewing, 0.0));
+    // A transient failure still latches: with the pins back, the fault stays until cleared
+    // and the amplifier is disabled.
+    b.outputs_broken.set(false);
+    let t = run(&mut d, 1);
+    assert_eq!(t.mode, Mode::Fault);
+    assert!(t.faults.contains(FaultFlags::DRIVER), "{:?}", t.faults);
+    assert!(!b.en_high.get());
+}
+
+#[test]
 fn the_strain_code_reaches_the_controller_sign_extended() {
     let (mut d, b) = drive();
-    b.code.set(-1234);
+    b.strain_code.set(-1234);
     let t = run(&mut d, 1);
     assert_eq!(t.strain_code, -1234);
     assert_eq!(code_from_bytes([0xFF, 0xFB, 0x2E]), -1234);

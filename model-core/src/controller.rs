@@ -192,6 +192,8 @@ struct Config<const K: usize> {
     rad_per_count: f32,
     rad_per_count_f64: f64,
     strain_per_code: f32,
+    /// The ADC's lowest and highest codes (`AdcSpec::at_rail`, computed once).
+    rails: (i32, i32),
     max_counts_per_tick: i64,
     velocity_lpf: LowPass,
     strain_rate_lpf: LowPass,
@@ -208,7 +210,7 @@ struct State {
     last_strain: Option<f32>,
     zero_sum: i64,
     zero_n: u32,
-    /// `zero_sum / zero_n`, kept current.
+    /// `zero_sum / zero_n`, computed when a move is commanded.
     zero_mean: f32,
     offset_code: f32,
     start_pending: bool,
@@ -301,6 +303,7 @@ impl<const K: usize> Controller<K> {
             rad_per_count: rad_per_count as f32,
             rad_per_count_f64: rad_per_count,
             strain_per_code: s.adc.strain_per_code() as f32,
+            rails: (s.adc.min_code(), s.adc.max_code()),
             max_counts_per_tick: max_counts as i64,
             velocity_lpf,
             strain_rate_lpf,
@@ -318,7 +321,15 @@ impl<const K: usize> Controller<K> {
             Mode::Fault => Err(CommandError::Faulted),
             Mode::Slewing => Err(CommandError::Busy),
             Mode::Idle | Mode::Holding => {
-                self.st.start_pending = true;
+                // The strain offset the move will use: the mean of the idle codes so far,
+                // which are exactly those the next tick (which takes the start) would see.
+                // The f64 division is software on the Cortex-M4F, so it runs here, with the
+                // command, and not in a tick.
+                let st = &mut self.st;
+                if st.zero_n > 0 {
+                    st.zero_mean = (st.zero_sum as f64 / st.zero_n as f64) as f32;
+                }
+                st.start_pending = true;
                 Ok(())
             }
         }
@@ -375,13 +386,50 @@ impl<const K: usize> Controller<K> {
     }
 
     /// One control tick. Never fails, never panics; the torque is finite and within the limit.
+    ///
+    /// The stages, in order (docs/design.md, section 6):
+    /// 1. [`estimate_hub`](Self::estimate_hub): the angle and rate from the counter;
+    /// 2. [`take_start`](Self::take_start): a pending start moves Idle or Holding to Slewing;
+    /// 3. [`estimate_strain`](Self::estimate_strain): the strain and its rate;
+    /// 4. [`detect_faults`](Self::detect_faults): any fault latches the Fault mode;
+    /// 5. [`advance`](Self::advance): the reference point, Slewing to Holding at the end;
+    /// 6. [`command`](Self::command): the law, saturation, and the stall watch.
     pub fn step(&mut self, raw: &RawMeasurement) -> TorqueCommand {
-        let cfg = &self.cfg;
-        let st = &mut self.st;
+        let hub = self.estimate_hub(raw);
+        let mut faults = hub.faults;
+        faults.insert(self.take_start(hub.theta));
+        let (strain, strain_rate) = self.estimate_strain(raw.strain_root_code);
+        let x = Estimate {
+            theta: hub.theta,
+            omega: hub.omega,
+            strain,
+            strain_rate,
+        };
+        faults.insert(self.detect_faults(raw, &x));
+        if !faults.is_empty() {
+            self.st.faults.insert(faults);
+            self.st.mode = Mode::Fault;
+        }
+        let reference = self.advance();
+        let torque_nm = self.command(&x, reference.as_ref(), hub.delta);
+        TorqueCommand {
+            torque_nm,
+            mode: self.st.mode,
+            faults: self.st.faults,
+            theta_rad: x.theta,
+            theta_ref_rad: reference.map_or(x.theta, |r| r.pos),
+            strain,
+        }
+    }
+
+    /// Stage 1: extends the counter, converts it to the hub angle and filters the rate. Flags
+    /// an encoder jump (more counts in one tick than the hub can turn). Runs every tick, in
+    /// every mode, before anything else: the start check needs the angle.
+    #[inline(always)]
+    fn estimate_hub(&mut self, raw: &RawMeasurement) -> Hub {
+        let (cfg, st) = (&self.cfg, &mut self.st);
         let s = &cfg.settings;
         let mut faults = FaultFlags::default();
-
-        // Hub angle and velocity from the extended count.
         let (count, delta) = st.counter.update(raw.encoder_raw, &s.encoder);
         if delta.unsigned_abs() > cfg.max_counts_per_tick as u64 {
             faults.insert(FaultFlags::ENCODER_JUMP);
@@ -392,14 +440,32 @@ impl<const K: usize> Controller<K> {
             cfg.rad_per_count,
             cfg.rad_per_count_f64,
         );
-        let omega = cfg
-            .velocity_lpf
-            .process(&mut st.omega, delta as f32 * cfg.rad_per_count / s.ts_s);
+        // `delta` is a sign-extended difference of a counter of at most 32 bits, so it fits
+        // an i32, whose conversion to f32 is one FPU instruction (an i64's is a call).
+        let omega = cfg.velocity_lpf.process(
+            &mut st.omega,
+            (delta as i32) as f32 * cfg.rad_per_count / s.ts_s,
+        );
+        Hub {
+            theta,
+            omega,
+            delta,
+            faults,
+        }
+    }
 
-        // A pending start: check the hub is where the move begins, freeze the strain offset.
+    /// Stage 2: acts on a start armed by [`start_move`](Self::start_move). With the hub at
+    /// the move's start (within the tolerance), the strain offset averaged while idle is
+    /// frozen and the mode becomes Slewing; otherwise the start is refused with
+    /// [`FaultFlags::START_MISMATCH`]. Runs before the strain is estimated, so the move's
+    /// first tick already uses the frozen offset; ignored in the Fault mode.
+    #[inline(always)]
+    fn take_start(&mut self, theta: f32) -> FaultFlags {
+        let (cfg, st) = (&self.cfg, &mut self.st);
+        let mut faults = FaultFlags::default();
         if st.start_pending && st.mode != Mode::Fault {
             st.start_pending = false;
-            if libm::fabsf(theta - cfg.spline.start()) > s.start_tolerance_rad {
+            if libm::fabsf(theta - cfg.spline.start()) > cfg.settings.start_tolerance_rad {
                 faults.insert(FaultFlags::START_MISMATCH);
             } else {
                 if st.mode == Mode::Idle && st.zero_n > 0 {
@@ -411,29 +477,41 @@ impl<const K: usize> Controller<K> {
                 st.strain_rate = 0.0;
             }
         }
+        faults
+    }
 
-        // Strain, offset removed, and its filtered rate.
-        let code = raw.strain_root_code;
-        if s.adc.at_rail(code) {
-            faults.insert(FaultFlags::ADC_RAIL);
-        }
+    /// Stage 3: the root strain with the offset removed, and its filtered rate (zero on the
+    /// first tick of a move). While idle, the code is added to the offset average.
+    #[inline(always)]
+    fn estimate_strain(&mut self, code: i32) -> (f32, f32) {
+        let (cfg, st) = (&self.cfg, &mut self.st);
         if st.mode == Mode::Idle && st.zero_n < MAX_ZERO_SAMPLES {
             st.zero_sum += code as i64;
             st.zero_n += 1;
-            // The mean is kept current here, on the cheap idle ticks: the f64 division is
-            // software on the Cortex-M4F, and done at the start it made that tick the
-            // costliest of the move.
-            st.zero_mean = (st.zero_sum as f64 / st.zero_n as f64) as f32;
         }
         let strain = (code as f32 - st.offset_code) * cfg.strain_per_code;
         let strain_rate = match st.last_strain {
             Some(prev) => cfg
                 .strain_rate_lpf
-                .process(&mut st.strain_rate, (strain - prev) / s.ts_s),
+                .process(&mut st.strain_rate, (strain - prev) / cfg.settings.ts_s),
             None => 0.0,
         };
         st.last_strain = Some(strain);
-        if libm::fabsf(strain) > s.max_strain {
+        (strain, strain_rate)
+    }
+
+    /// Stage 4: the faults of this tick's readings and estimate: an ADC at a rail, strain
+    /// over the limit, the amplifier's fault line, a driver failure, a non-finite value.
+    /// Pure: the caller latches what it returns.
+    #[inline(always)]
+    fn detect_faults(&self, raw: &RawMeasurement, x: &Estimate) -> FaultFlags {
+        let s = &self.cfg.settings;
+        let mut faults = FaultFlags::default();
+        let code = raw.strain_root_code;
+        if code <= self.cfg.rails.0 || code >= self.cfg.rails.1 {
+            faults.insert(FaultFlags::ADC_RAIL);
+        }
+        if libm::fabsf(x.strain) > s.max_strain {
             faults.insert(FaultFlags::OVER_STRAIN);
         }
         if raw.amp_fault {
@@ -442,54 +520,64 @@ impl<const K: usize> Controller<K> {
         if raw.driver_fault {
             faults.insert(FaultFlags::DRIVER);
         }
-        if !(theta.is_finite()
-            && omega.is_finite()
-            && strain.is_finite()
-            && strain_rate.is_finite())
+        if !(x.theta.is_finite()
+            && x.omega.is_finite()
+            && x.strain.is_finite()
+            && x.strain_rate.is_finite())
         {
             faults.insert(FaultFlags::NON_FINITE);
         }
+        faults
+    }
 
-        // Any fault latches.
-        if !faults.is_empty() {
-            st.faults.insert(faults);
-            st.mode = Mode::Fault;
+    /// Stage 5: while Slewing or Holding, the reference point of this tick; the move's
+    /// clock advances, and Slewing becomes Holding once the move's time is up. `None` in the
+    /// Idle and Fault modes (no torque).
+    #[inline(always)]
+    fn advance(&mut self) -> Option<RefPoint> {
+        let (cfg, st) = (&self.cfg, &mut self.st);
+        if !matches!(st.mode, Mode::Slewing | Mode::Holding) {
+            return None;
         }
-
-        // The law.
-        let mut reference = RefPoint {
-            pos: theta,
-            vel: 0.0,
-            acc: 0.0,
-        };
-        let mut torque = 0.0;
-        if matches!(st.mode, Mode::Slewing | Mode::Holding) {
-            let t = st.ticks as f32 * s.ts_s;
-            reference = cfg.spline.eval(t);
-            if st.mode == Mode::Slewing {
-                if t >= cfg.spline.duration_s() {
-                    st.mode = Mode::Holding;
-                } else {
-                    st.ticks += 1;
-                }
+        let t = st.ticks as f32 * cfg.settings.ts_s;
+        let reference = cfg.spline.eval(t);
+        if st.mode == Mode::Slewing {
+            if t >= cfg.spline.duration_s() {
+                st.mode = Mode::Holding;
+            } else {
+                st.ticks += 1;
             }
-            let x = Estimate {
-                theta,
-                omega,
-                strain,
-                strain_rate,
-            };
-            torque = cfg.law.torque_nm(&x, &reference);
+        }
+        Some(reference)
+    }
+
+    /// Stage 6: the law's torque at `reference` (zero without one), a non-finite torque
+    /// latched as a fault, saturation at the limit, and the stall watch: no encoder count
+    /// (`delta` 0) for [`STALL_TICKS`] under at least [`STALL_TORQUE_FRACTION`] of the limit
+    /// latches [`FaultFlags::ENCODER_STUCK`]. Returns the torque to apply.
+    #[inline(always)]
+    fn command(&mut self, x: &Estimate, reference: Option<&RefPoint>, delta: i64) -> f32 {
+        let (cfg, st) = (&self.cfg, &mut self.st);
+        let mut torque = 0.0;
+        if let Some(r) = reference {
+            torque = cfg.law.torque_nm(x, r);
             if !torque.is_finite() {
                 st.faults.insert(FaultFlags::NON_FINITE);
                 st.mode = Mode::Fault;
                 torque = 0.0;
             }
         }
-        let limit = s.torque_limit_nm;
-        // Not `clamp`: its min <= max assertion would put a panic on the tick path, and
-        // the limit was validated positive when the controller was built.
-        let mut torque = torque.max(-limit).min(limit);
+        let limit = cfg.settings.torque_limit_nm;
+        // Comparisons, not `clamp` (its min <= max assertion would put a panic on the tick
+        // path) nor `max`/`min` (library calls on the Cortex-M4F, which has no VMAXNM). The
+        // torque is finite here and the limit was validated positive.
+        let mut torque = if torque > limit {
+            limit
+        } else if torque < -limit {
+            -limit
+        } else {
+            torque
+        };
         if st.mode != Mode::Fault
             && delta == 0
             && libm::fabsf(torque) >= STALL_TORQUE_FRACTION * limit
@@ -503,15 +591,17 @@ impl<const K: usize> Controller<K> {
             st.mode = Mode::Fault;
             torque = 0.0;
         }
-        TorqueCommand {
-            torque_nm: torque,
-            mode: st.mode,
-            faults: st.faults,
-            theta_rad: theta,
-            theta_ref_rad: reference.pos,
-            strain,
-        }
+        torque
     }
+}
+
+/// The hub's estimate from the encoder, with the counter's change and any jump fault.
+#[derive(Clone, Copy, Debug)]
+struct Hub {
+    theta: f32,
+    omega: f32,
+    delta: i64,
+    faults: FaultFlags,
 }
 
 #[cfg(test)]

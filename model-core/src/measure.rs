@@ -100,10 +100,11 @@ impl CounterExtender {
             self.last_raw = raw;
             return (self.count, 0);
         }
-        // Sign-extend the wrapped difference from `bits` to 64 bits.
+        // Sign-extend the wrapped difference from `bits` to 32 bits (bits <= 32), then to 64.
+        // In 32 bits: the Cortex-M4 has no 64-bit shifts by a variable amount.
         let diff = raw.wrapping_sub(self.last_raw) & spec.mask();
-        let shift = 64 - bits;
-        let delta = ((diff as i64) << shift) >> shift;
+        let shift = 32 - bits;
+        let delta = (((diff << shift) as i32) >> shift) as i64;
         self.last_raw = raw;
         self.count = self.count.wrapping_add(delta);
         (self.count, delta)
@@ -129,7 +130,9 @@ pub const EXACT_F32_COUNTS: i64 = 1 << 24;
 #[inline]
 pub fn angle_rad(count: i64, home_rad: f32, rad_per_count: f32, rad_per_count_f64: f64) -> f32 {
     if count.unsigned_abs() < EXACT_F32_COUNTS as u64 {
-        home_rad + count as f32 * rad_per_count
+        // Within 2^24 the count fits an i32, whose conversion is one FPU instruction on the
+        // Cortex-M4F (an i64's is a library call); both are exact here.
+        home_rad + (count as i32) as f32 * rad_per_count
     } else {
         (home_rad as f64 + count as f64 * rad_per_count_f64) as f32
     }

@@ -3,8 +3,9 @@
 //!
 //! Runs on QEMU's `netduinoplus2` (an emulated STM32F405). Each tick the host writes one
 //! [`SensorFrame`](beam_wire::SensorFrame) to semihosting stdin; the drive hands its
-//! encoder count, strain code and fault line to the same generic drivers the board uses (the
-//! ADS1220 driver clocks the code out of a stand-in SPI bus with DRDY always ready), runs
+//! encoder count, strain code and fault line to the same generic drivers the board uses, over
+//! the fake bus and pins of `firmware::fakes` (the ADS1220 driver clocks the code out of a
+//! stand-in SPI bus with DRDY always ready), runs
 //! `Drive::tick`, and writes one [`CommandFrame`](beam_wire::CommandFrame) back on
 //! stdout. The tick is bracketed by `insn_mark_start` / `insn_mark_end` for the
 //! instruction-count plugin, and its telemetry goes out through defmt, here a logger on
@@ -15,19 +16,15 @@
 #[cfg(target_os = "none")]
 mod pil {
     use beam_wire::{
-        decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage,
-        SensorFrame, MAX_FRAME,
+        decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage, MAX_FRAME,
     };
-    use core::cell::{Cell, UnsafeCell};
-    use core::convert::Infallible;
+    use core::cell::UnsafeCell;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
-    use embedded_hal::digital::{ErrorType as PinErrorType, InputPin, OutputPin};
-    use embedded_hal::pwm::{ErrorType as PwmErrorType, SetDutyCycle};
-    use embedded_hal::spi::{ErrorType as SpiErrorType, Operation, SpiDevice};
     use firmware::ads1220::Ads1220;
     use firmware::amplifier::{Amplifier, TorqueScale};
     use firmware::config::{build_controller_for, nearest, sequence, SLEW_FROM_RAD};
-    use firmware::drive::{Command, Drive, QuadratureCounter};
+    use firmware::drive::{Command, Drive};
+    use firmware::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm};
     use semihosting::io::{Read, Write};
     // The PAC's interrupt vector table, which cortex-m-rt's `device` feature expects.
     use stm32f4xx_hal as _;
@@ -45,86 +42,6 @@ mod pil {
     #[inline(never)]
     pub extern "C" fn insn_mark_end() {
         core::hint::black_box(2u32);
-    }
-
-    /// The board's encoder counter, reading the frame.
-    struct Counter<'a>(&'a Cell<SensorFrame>);
-    impl QuadratureCounter for Counter<'_> {
-        fn count(&mut self) -> u32 {
-            self.0.get().encoder_raw
-        }
-    }
-
-    /// The converter's SPI bus: a read clocks out the frame's 24-bit code, MSB first.
-    struct Bus<'a>(&'a Cell<SensorFrame>);
-    impl SpiErrorType for Bus<'_> {
-        type Error = Infallible;
-    }
-    impl SpiDevice for Bus<'_> {
-        fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), Infallible> {
-            let [_, b2, b1, b0] = self.0.get().strain_code.to_be_bytes();
-            for op in ops {
-                if let Operation::Read(buf) = op {
-                    for (dst, src) in buf.iter_mut().zip([b2, b1, b0]) {
-                        *dst = src;
-                    }
-                }
-            }
-            Ok(())
-        }
-    }
-
-    /// DRDY: a new conversion every tick, as the host's sensor model gives one.
-    struct Ready;
-    impl PinErrorType for Ready {
-        type Error = Infallible;
-    }
-    impl InputPin for Ready {
-        fn is_high(&mut self) -> Result<bool, Infallible> {
-            Ok(false)
-        }
-        fn is_low(&mut self) -> Result<bool, Infallible> {
-            Ok(true)
-        }
-    }
-
-    /// The amplifier's /FAULT line from the frame.
-    struct FaultLine<'a>(&'a Cell<SensorFrame>);
-    impl PinErrorType for FaultLine<'_> {
-        type Error = Infallible;
-    }
-    impl InputPin for FaultLine<'_> {
-        fn is_high(&mut self) -> Result<bool, Infallible> {
-            Ok(!self.0.get().amp_fault)
-        }
-        fn is_low(&mut self) -> Result<bool, Infallible> {
-            Ok(self.0.get().amp_fault)
-        }
-    }
-
-    /// The amplifier's inputs go nowhere: the torque travels back in the command frame.
-    struct Sink;
-    impl PwmErrorType for Sink {
-        type Error = Infallible;
-    }
-    impl SetDutyCycle for Sink {
-        fn max_duty_cycle(&self) -> u16 {
-            8400 // TIM1 at 168 MHz and 20 kHz, as on the board
-        }
-        fn set_duty_cycle(&mut self, _: u16) -> Result<(), Infallible> {
-            Ok(())
-        }
-    }
-    impl PinErrorType for Sink {
-        type Error = Infallible;
-    }
-    impl OutputPin for Sink {
-        fn set_low(&mut self) -> Result<(), Infallible> {
-            Ok(())
-        }
-        fn set_high(&mut self) -> Result<(), Infallible> {
-            Ok(())
-        }
     }
 
     struct Link {
@@ -165,11 +82,16 @@ mod pil {
         };
         let controller = build_controller_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
         let moves = sequence().map_err(|_| DriveError::Config)?;
-        let frame = Cell::new(SensorFrame::default());
+        // The sensor frame is copied into the bench before each tick; the ADS1220 and
+        // amplifier drivers run on the bench's fake bus and pins, a new conversion every
+        // tick, as the host's sensor model gives one. The amplifier's outputs go nowhere:
+        // the torque travels back in the command frame.
+        let bench = Bench::new();
         let amp = match Amplifier::new(
-            Sink,
-            Sink,
-            Sink,
+            Pwm(&bench),
+            Direction(&bench),
+            Enable(&bench),
+            Line(&bench),
             TorqueScale {
                 full_scale_nm: 10.0,
             },
@@ -179,10 +101,9 @@ mod pil {
         };
         let mut drive = Drive::new(
             controller,
-            Counter(&frame),
-            Ads1220::new(Bus(&frame), Ready),
+            Counter(&bench),
+            Ads1220::new(Bus(&bench), DataReady(&bench)),
             amp,
-            FaultLine(&frame),
         );
         link.send(&DriveMessage::Ready)?;
         let mut expected = 0u32;
@@ -199,7 +120,9 @@ mod pil {
                     got: sensors.seq,
                 });
             }
-            frame.set(sensors);
+            bench.encoder_raw.set(sensors.encoder_raw);
+            bench.strain_code.set(sensors.strain_code);
+            bench.amp_fault.set(sensors.amp_fault);
             if sensors.start {
                 if let Some(m) = nearest(&moves, theta) {
                     // Refused (faulted, busy): the command frame's mode and faults say so.

@@ -38,8 +38,12 @@ pub struct PilArgs {
     #[arg(long, value_name = "SO")]
     insn_plugin: Option<PathBuf>,
     /// Do not count instructions.
-    #[arg(long, conflicts_with = "insn_plugin")]
+    #[arg(long, conflicts_with_all = ["insn_plugin", "insn_profile"])]
     no_insn_count: bool,
+    /// Also profile the tick: write the plugin's per-address counts to FILE, for
+    /// `beam-tools/qemu-plugin/profile.py ELF FILE` (several times slower).
+    #[arg(long, value_name = "FILE")]
+    insn_profile: Option<PathBuf>,
     /// Write the drive's telemetry for the move as CSV (the `beam calibrate` format).
     #[arg(long, value_name = "FILE")]
     telemetry: Option<PathBuf>,
@@ -61,6 +65,7 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
         elf: a.elf.clone().unwrap_or_else(paths::pil_elf),
         qemu: a.qemu.clone(),
         plugin,
+        profile: a.insn_profile.is_some(),
         timeout_s: a.timeout,
         controller: a.controller,
         payload_kg,
@@ -68,6 +73,10 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
     let law = law_for(cfg.controller, payload_kg)
         .with_context(|| format!("the gain table has no `{}` rows", cfg.controller))?;
     let out = with_modes!(a.plant.modes, pil_n(&beam, &cfg, &opts))?;
+    if let Some(path) = &a.insn_profile {
+        io::write_atomically(path, |w| w.write_all(out.insn_log.as_bytes()))
+            .with_context(|| path.display().to_string())?;
+    }
     if let Some(path) = &a.telemetry {
         let rows = telemetry::first_move(&out.telemetry.rows)
             .context("the drive's telemetry shows no move")?;
