@@ -34,19 +34,13 @@ use stm32f4xx_hal::{
 
 /// The board's crystal, Hz.
 pub const HSE_HZ: u32 = 8_000_000;
-/// Core clock, Hz.
-pub const SYSCLK_HZ: u32 = 168_000_000;
+pub use firmware::config::{FULL_SCALE_TORQUE_NM, PWM_HZ, SYSCLK_HZ};
 /// Control loop rate, Hz (model-core's `DEFAULT_TS_S` is its period).
-pub const LOOP_HZ: u32 = 1_000;
-/// Amplifier PWM frequency, Hz: above hearing, well within the amplifier's input range.
-pub const PWM_HZ: u32 = 20_000;
+pub use model_core::LOOP_HZ;
 /// Bridge ADC SPI clock, Hz (the ADS1220 allows up to 6.6 MHz).
 pub const ADC_SPI_HZ: u32 = 4_000_000;
 /// Watchdog timeout, ms: ten missed ticks reset the MCU.
 pub const WATCHDOG_MS: u32 = 10;
-/// Torque at 100 % PWM duty, N m (the amplifier's current scale times the motor's torque
-/// constant). Equal to the controller's torque limit, so saturation never clips twice.
-pub const FULL_SCALE_TORQUE_NM: f32 = 10.0;
 /// GPIOB pin of the amplifier's enable line; the panic path drives it through the registers.
 const ENABLE_PIN: u8 = 13;
 

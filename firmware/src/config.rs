@@ -26,12 +26,27 @@ pub fn law_for(kind: LawKind, payload_kg: f32) -> Option<Law> {
     })
 }
 
-/// The paper's slew: -90 deg to +90 deg in 0.35 s, and back.
-pub const SLEW_FROM_RAD: f32 = -core::f32::consts::FRAC_PI_2;
+/// The paper's slew: -90 deg to +90 deg in 0.35 s, and back (model-core's `paper_slew`).
+pub const SLEW_FROM_RAD: f32 = model_core::spline::paper_slew::FROM_RAD;
 /// End of the outward slew, rad.
-pub const SLEW_TO_RAD: f32 = core::f32::consts::FRAC_PI_2;
+pub const SLEW_TO_RAD: f32 = model_core::spline::paper_slew::TO_RAD;
 /// Duration of each slew, s.
-pub const SLEW_TIME_S: f32 = 0.35;
+pub const SLEW_TIME_S: f32 = model_core::spline::paper_slew::TIME_S;
+
+/// The core clock the board runs at, Hz (8 MHz crystal, PLL).
+pub const SYSCLK_HZ: u32 = 168_000_000;
+/// The amplifier's PWM frequency, Hz: above hearing, well within the amplifier's input range.
+pub const PWM_HZ: u32 = 20_000;
+/// TIM1's counts per PWM period at [`SYSCLK_HZ`] and [`PWM_HZ`]: the duty's full scale, as on
+/// the board (the PIL drive's fake PWM uses it too).
+pub const PWM_PERIOD_COUNTS: u16 = (SYSCLK_HZ / PWM_HZ) as u16;
+/// Torque at 100 % PWM duty, N m (the amplifier's current scale times the motor's torque
+/// constant): the controller's torque limit, so saturation never clips twice.
+pub const FULL_SCALE_TORQUE_NM: f32 = model_core::DRIVE_TORQUE_LIMIT_NM;
+
+// The period fits the timer's 16 bits and the loop runs at model-core's rate.
+const _: () = assert!(SYSCLK_HZ / PWM_HZ <= u16::MAX as u32);
+const _: () = assert!(SYSCLK_HZ % PWM_HZ == 0);
 
 /// Why the compiled-in configuration is unusable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -14,8 +14,8 @@ use embedded_hal::digital::{ErrorType as PinErrorType, InputPin, OutputPin};
 use embedded_hal::pwm::{ErrorType as PwmErrorType, SetDutyCycle};
 use embedded_hal::spi::{ErrorType as SpiErrorType, Operation, SpiDevice};
 
-/// The PWM's full-scale count: TIM1 at 168 MHz and 20 kHz, as on the board.
-pub const MAX_DUTY: u16 = 8400;
+/// The PWM's full-scale count: TIM1's period on the board.
+pub const MAX_DUTY: u16 = crate::config::PWM_PERIOD_COUNTS;
 
 /// What the fakes read and record.
 #[derive(Debug, Default)]

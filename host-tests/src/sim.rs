@@ -9,17 +9,15 @@
 use crate::plant::{Breakdown, Plant, State};
 use crate::sensors::{SensorConfig, Sensors};
 use model_core::controller::ConfigError;
+use model_core::spline::paper_slew;
 use model_core::{
     ControlLaw, Controller, ControllerSettings, Law, LawKind, ModalModel, Mode, PdGains,
     RawMeasurement, SmcGains, Spline, StrainSmcGains, Switching, TorqueCommand,
 };
 
-/// Start and end of the paper's slew, rad, and its duration AT, s.
-pub const SLEW_FROM_RAD: f64 = -std::f64::consts::FRAC_PI_2;
-/// End of the paper's slew, rad.
-pub const SLEW_TO_RAD: f64 = std::f64::consts::FRAC_PI_2;
-/// The paper's move time AT, s.
-pub const SLEW_TIME_S: f64 = 0.35;
+/// The paper's move time AT, s, as the host's metrics use it (model-core's
+/// `spline::paper_slew` is the one definition of the slew).
+pub const SLEW_TIME_S: f64 = paper_slew::TIME_MS as f64 / 1000.0;
 
 /// The paper's SMC gains picked by hand for the aluminium preset with 3 modes: a grid over
 /// W, A, beta ranked by the tip's settling time (README, "Control laws and the hand-picked gains").
@@ -223,7 +221,7 @@ pub fn settings_for<const N: usize>(
     ControllerSettings {
         encoder: sensors.encoder,
         adc: sensors.adc,
-        theta_home_rad: SLEW_FROM_RAD as f32,
+        theta_home_rad: paper_slew::FROM_RAD,
         torque_limit_nm: model.beam.params().torque_limit_nm as f32,
         ..ControllerSettings::default()
     }
@@ -231,7 +229,7 @@ pub fn settings_for<const N: usize>(
 
 /// The paper's slew (-90 to +90 deg in 0.35 s, quintic).
 pub fn paper_slew() -> Result<Spline<MOVE_CAPACITY>, SimError> {
-    Spline::quintic(SLEW_FROM_RAD as f32, SLEW_TO_RAD as f32, SLEW_TIME_S as f32)
+    Spline::quintic(paper_slew::FROM_RAD, paper_slew::TO_RAD, paper_slew::TIME_S)
         .map_err(SimError::Spline)
 }
 

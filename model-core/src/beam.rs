@@ -68,7 +68,7 @@ impl BeamParams {
             damping_ratio: 0.01,
             root_gauge_m: 0.0,
             mid_gauge_m: 0.4842 / 2.0,
-            torque_limit_nm: 10.0,
+            torque_limit_nm: crate::DRIVE_TORQUE_LIMIT_NM as f64,
         }
     }
 

@@ -172,7 +172,7 @@ impl Default for ControllerSettings {
             theta_home_rad: -core::f32::consts::FRAC_PI_2,
             velocity_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,
             strain_rate_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,
-            torque_limit_nm: 10.0,
+            torque_limit_nm: crate::DRIVE_TORQUE_LIMIT_NM,
             // The paper's slew peaks at 15/8 * pi / 0.35 s = 16.8 rad/s.
             max_speed_rad_s: 50.0,
             // Aluminium yields near 4000 microstrain.

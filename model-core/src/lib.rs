@@ -67,8 +67,16 @@ pub mod measure;
 pub mod modal;
 pub mod spline;
 
-/// The controller sample period used by the paper's testbed and by default everywhere: 1 kHz.
-pub const DEFAULT_TS_S: f32 = 1.0e-3;
+/// The control loop's rate, Hz: the paper's testbed and the drive's TIM2 tick.
+pub const LOOP_HZ: u32 = 1_000;
+
+/// The controller sample period used by the paper's testbed and by default everywhere: one
+/// tick of [`LOOP_HZ`].
+pub const DEFAULT_TS_S: f32 = 1.0 / LOOP_HZ as f32;
+
+/// The drive's torque limit, N m: the controller saturates at it, the amplifier's full scale
+/// equals it (so saturation never clips twice), and the presets' plant carries it.
+pub const DRIVE_TORQUE_LIMIT_NM: f32 = 10.0;
 
 pub use beam::{Beam, BeamParams, ParamError, Preset};
 

@@ -184,6 +184,19 @@ impl<const K: usize> Spline<K> {
     }
 }
 
+/// The paper's slew, the default move everywhere: -90 deg to +90 deg in 0.35 s, rest to rest.
+pub mod paper_slew {
+    /// Start, rad.
+    pub const FROM_RAD: f32 = -core::f32::consts::FRAC_PI_2;
+    /// End, rad.
+    pub const TO_RAD: f32 = core::f32::consts::FRAC_PI_2;
+    /// Duration AT, ms (exact: `f64` users take `TIME_MS as f64 / 1000.0`, the nearest
+    /// double to 0.35).
+    pub const TIME_MS: u32 = 350;
+    /// Duration AT, s (the nearest `f32` to 0.35).
+    pub const TIME_S: f32 = TIME_MS as f32 / 1000.0;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -93,7 +93,7 @@ mod pil {
             Enable(&bench),
             Line(&bench),
             TorqueScale {
-                full_scale_nm: 10.0,
+                full_scale_nm: firmware::config::FULL_SCALE_TORQUE_NM,
             },
         ) {
             Ok(a) => a,
