@@ -57,8 +57,9 @@ fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
             c: mix(a.c, b.c),
             model_terms: a.model_terms,
         }),
-        // Rows are filtered by kind, so kinds always match.
-        _ => *lo,
+        // Rows are filtered by kind, so kinds always match. Listed by variant, not `_`, so
+        // that a new law is a compile error here until it says how its gains interpolate.
+        (Law::Pd(_) | Law::Smc(_) | Law::SmcStrain(_), _) => *lo,
     }
 }
 

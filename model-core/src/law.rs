@@ -171,7 +171,7 @@ impl ControlLaw {
                         finite("c", sg.c)?;
                         Self::strain_law(law, sg, model)
                     }
-                    _ => Ok(Self {
+                    Law::Smc(_) | Law::Pd(_) => Ok(Self {
                         law,
                         inertia: jeff as f32,
                         model: ModelTerms::default(),
