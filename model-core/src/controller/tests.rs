@@ -1,0 +1,313 @@
+//! The controller against hand-built raw readings: modes, faults, commands, and properties
+//! over any sequence of readings.
+
+use super::*;
+use crate::beam::{Beam, BeamParams};
+use crate::law::{Law, PdGains, SmcGains, StrainSmcGains, Switching};
+use crate::modal::ModalModel;
+use proptest::prelude::*;
+
+fn controller(law: Law) -> Controller<4> {
+    let m = ModalModel::<2>::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
+    let law = ControlLaw::try_build(law, &m).unwrap();
+    let half_pi = core::f32::consts::FRAC_PI_2;
+    Controller::try_build(
+        ControllerSettings::default(),
+        law,
+        Spline::quintic(-half_pi, half_pi, 0.35).unwrap(),
+    )
+    .unwrap()
+}
+
+const SMC_GAINS: SmcGains = SmcGains {
+    w: 30.0,
+    a: 20.0,
+    beta: 0.3,
+    switching: Switching::Tanh,
+};
+const SMC: Law = Law::Smc(SMC_GAINS);
+
+/// The raw counter of a hub exactly on the move's reference `ticks` ticks in.
+fn on_reference(c: &Controller<4>, ticks: u32) -> RawMeasurement {
+    let s = c.settings();
+    let theta = c.spline().eval(ticks as f32 * s.ts_s).pos;
+    let count = ((theta - s.theta_home_rad) / s.encoder.rad_per_count() as f32).round();
+    RawMeasurement {
+        encoder_raw: (count as i64 as u32) & s.encoder.mask(),
+        ..Default::default()
+    }
+}
+
+#[test]
+fn idle_until_started_then_slews_then_holds() {
+    let mut c = controller(Law::Pd(PdGains::BASELINE));
+    let out = c.step(&on_reference(&c, 0));
+    assert_eq!((out.mode, out.torque_nm), (Mode::Idle, 0.0));
+    c.start_move().unwrap();
+    let out = c.step(&on_reference(&c, 0));
+    assert_eq!(out.mode, Mode::Slewing);
+    // On the reference at rest at the start: nothing to correct yet.
+    assert_eq!(out.torque_nm, 0.0);
+    for k in 1..=400 {
+        let out = c.step(&on_reference(&c, k));
+        assert!(out.faults.is_empty(), "tick {k}: {}", out.faults);
+    }
+    let out = c.step(&on_reference(&c, 400));
+    assert_eq!(out.mode, Mode::Holding);
+    // At the end point and at rest (the velocity filter has settled): no torque needed
+    // beyond a count's worth of error.
+    assert!(out.torque_nm.abs() < 0.01, "{}", out.torque_nm);
+    assert_eq!(c.start_move(), Ok(()));
+}
+
+#[test]
+fn a_hub_that_does_not_move_under_torque_trips_encoder_stuck() {
+    let mut c = controller(Law::Pd(PdGains::BASELINE));
+    let still = RawMeasurement::default();
+    c.step(&still);
+    c.start_move().unwrap();
+    // The reference runs away from a hub that never moves; once PD's torque passes a
+    // fifth of the limit, STALL_TICKS ticks without a count trip the fault.
+    let outs: Vec<TorqueCommand> = (0..400).map(|_| c.step(&still)).collect();
+    let k = outs
+        .iter()
+        .position(|o| o.mode == Mode::Fault)
+        .expect("a hub that never moves must trip");
+    assert_eq!(outs[k].faults, FaultFlags::ENCODER_STUCK);
+    assert_eq!(outs[k].torque_nm, 0.0);
+    let strong = outs
+        .iter()
+        .position(|o| o.torque_nm.abs() >= STALL_TORQUE_FRACTION * 10.0)
+        .unwrap();
+    assert_eq!(k, strong + STALL_TICKS as usize - 1);
+    assert!(outs[strong..k].iter().all(|o| o.torque_nm.abs() >= 2.0));
+}
+
+#[test]
+fn faults_latch_with_torque_off_until_reset() {
+    let mut c = controller(SMC);
+    c.step(&RawMeasurement::default());
+    c.start_move().unwrap();
+    c.step(&RawMeasurement::default());
+    let out = c.step(&RawMeasurement {
+        amp_fault: true,
+        ..Default::default()
+    });
+    assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
+    assert!(out.faults.contains(FaultFlags::AMP_FAULT));
+    // The fault input clearing does not clear the fault.
+    let out = c.step(&RawMeasurement::default());
+    assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
+    assert_eq!(c.start_move(), Err(CommandError::Faulted));
+    c.reset();
+    assert_eq!(c.step(&RawMeasurement::default()).mode, Mode::Idle);
+}
+
+#[test]
+fn the_next_move_is_swapped_in_between_moves_only() {
+    let half_pi = core::f32::consts::FRAC_PI_2;
+    let back = Spline::quintic(half_pi, -half_pi, 0.35).unwrap();
+    let wrong = Spline::quintic(0.0, half_pi, 0.35).unwrap();
+    let mut c = controller(Law::Pd(PdGains::BASELINE));
+    c.step(&on_reference(&c, 0));
+    c.start_move().unwrap();
+    c.step(&on_reference(&c, 0));
+    assert_eq!(c.set_spline(back.clone()), Err(CommandError::Busy));
+    for k in 1..=400 {
+        c.step(&on_reference(&c, k));
+    }
+    assert_eq!(c.mode(), Mode::Holding);
+    // The hub is at +90 deg: the way back starts there and runs.
+    let at_end = on_reference(&c, 400);
+    c.set_spline(back).unwrap();
+    c.start_move().unwrap();
+    assert_eq!(c.step(&at_end).mode, Mode::Slewing);
+    for k in 1..=400 {
+        c.step(&on_reference(&c, k));
+    }
+    assert_eq!(c.mode(), Mode::Holding);
+    // A move that starts at 0 deg is refused at the next tick as a start mismatch.
+    let home = on_reference(&c, 400);
+    c.set_spline(wrong).unwrap();
+    c.start_move().unwrap();
+    let out = c.step(&home);
+    assert_eq!(out.mode, Mode::Fault);
+    assert!(out.faults.contains(FaultFlags::START_MISMATCH));
+}
+
+#[test]
+fn a_torque_that_overflows_latches_non_finite_with_the_torque_off() {
+    let mut c = controller(Law::Pd(PdGains { kp: 3e38, kd: 3e38 }));
+    c.step(&on_reference(&c, 0));
+    c.start_move().unwrap();
+    c.step(&on_reference(&c, 0));
+    // One count off the reference: 3e38 * 3.8e-4 is finite, the velocity term is not.
+    let out = c.step(&RawMeasurement {
+        encoder_raw: 5,
+        ..Default::default()
+    });
+    assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
+    assert!(
+        out.faults.contains(FaultFlags::NON_FINITE),
+        "{}",
+        out.faults
+    );
+}
+
+#[test]
+fn each_bad_reading_names_its_fault() {
+    let cases: [(RawMeasurement, FaultFlags); 4] = [
+        (
+            RawMeasurement {
+                driver_fault: true,
+                ..Default::default()
+            },
+            FaultFlags::DRIVER,
+        ),
+        (
+            RawMeasurement {
+                strain_root_code: i32::MAX,
+                ..Default::default()
+            },
+            FaultFlags::ADC_RAIL,
+        ),
+        (
+            RawMeasurement {
+                encoder_raw: 5000,
+                ..Default::default()
+            },
+            FaultFlags::ENCODER_JUMP,
+        ),
+        // 4000 microstrain is past the 3000 limit but inside the ADC's 5000 span.
+        (
+            RawMeasurement {
+                strain_root_code: (4000e-6 / AdcSpec::DEFAULT.strain_per_code()) as i32,
+                ..Default::default()
+            },
+            FaultFlags::OVER_STRAIN,
+        ),
+    ];
+    for (raw, flag) in cases {
+        let mut c = controller(SMC);
+        c.step(&RawMeasurement::default());
+        let out = c.step(&raw);
+        assert_eq!(out.mode, Mode::Fault, "{flag}");
+        assert!(out.faults.contains(flag), "{} lacks {flag}", out.faults);
+    }
+}
+
+#[test]
+fn a_move_started_away_from_its_start_is_refused() {
+    let mut c = controller(SMC);
+    c.step(&RawMeasurement::default());
+    // Move the hub 100 counts per tick (within the speed limit) to 0.3 rad away.
+    let mut raw = 0u32;
+    for _ in 0..8 {
+        raw += 100;
+        c.step(&RawMeasurement {
+            encoder_raw: raw,
+            ..Default::default()
+        });
+    }
+    c.start_move().unwrap();
+    let out = c.step(&RawMeasurement {
+        encoder_raw: raw,
+        ..Default::default()
+    });
+    assert!(out.faults.contains(FaultFlags::START_MISMATCH));
+    assert_eq!(out.torque_nm, 0.0);
+}
+
+#[test]
+fn idle_averaging_removes_the_strain_offset() {
+    let mut c = controller(SMC);
+    for k in 0..100 {
+        c.step(&RawMeasurement {
+            strain_root_code: 1000 + (k % 2) * 2,
+            ..Default::default()
+        });
+    }
+    c.start_move().unwrap();
+    let out = c.step(&RawMeasurement {
+        strain_root_code: 1001,
+        ..Default::default()
+    });
+    assert_eq!(out.strain, 0.0);
+}
+
+#[test]
+fn bad_settings_are_named() {
+    let m = ModalModel::<1>::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
+    let law = ControlLaw::try_build(SMC, &m).unwrap();
+    let spline = Spline::<2>::quintic(0.0, 1.0, 0.35).unwrap();
+    let build = |s| Controller::try_build(s, law, spline.clone()).unwrap_err();
+    let named = |e: ConfigError| match e {
+        ConfigError::Param(p) => p.field,
+    };
+    assert_eq!(
+        named(build(ControllerSettings {
+            ts_s: 0.0,
+            ..Default::default()
+        })),
+        "ts_s"
+    );
+    assert_eq!(
+        named(build(ControllerSettings {
+            max_strain: f32::NAN,
+            ..Default::default()
+        })),
+        "max_strain"
+    );
+    assert_eq!(
+        named(build(ControllerSettings {
+            max_speed_rad_s: 1e6,
+            ..Default::default()
+        })),
+        "max_speed_rad_s"
+    );
+}
+
+proptest! {
+    /// Whatever the sensors say, tick after tick, the torque is finite and within the
+    /// limit, and torque is only applied while slewing or holding.
+    #[test]
+    fn step_is_total_and_bounded(
+        law_pick in 0usize..4,
+        starts in prop::collection::vec(any::<bool>(), 1..60),
+        raws in prop::collection::vec((
+            // Any counter value, or small steps (so the loop actually runs instead of
+            // tripping the jump check at once).
+            prop_oneof![any::<u32>(), 0u32..200, 65_400u32..65_536],
+            // Any code, the 24-bit rails, and codes near zero.
+            prop_oneof![any::<i32>(), Just(8_388_607), Just(-8_388_608), -5_000i32..5_000],
+            any::<bool>(),
+            any::<bool>(),
+        ), 1..60),
+    ) {
+        // The last law overflows f32 on the first error: every torque it computes is
+        // non-finite, which must latch NON_FINITE with the torque off.
+        let laws = [
+            Law::Pd(PdGains::BASELINE),
+            SMC,
+            Law::SmcStrain(StrainSmcGains { smc: SMC_GAINS, c: -50.0, model_terms: true }),
+            Law::Pd(PdGains { kp: 3e38, kd: 3e38 }),
+        ];
+        let mut c = controller(laws[law_pick]);
+        for (i, (enc, code, amp, drv)) in raws.into_iter().enumerate() {
+            if starts[i % starts.len()] {
+                let _ = c.start_move();
+            }
+            if i % 17 == 16 {
+                c.reset();
+            }
+            let out = c.step(&RawMeasurement { encoder_raw: enc, strain_root_code: code, amp_fault: amp, driver_fault: drv });
+            prop_assert!(out.torque_nm.is_finite() && out.torque_nm.abs() <= 10.0);
+            if !matches!(out.mode, Mode::Slewing | Mode::Holding) {
+                prop_assert_eq!(out.torque_nm, 0.0);
+            }
+            if out.mode == Mode::Fault {
+                prop_assert!(!out.faults.is_empty());
+            }
+        }
+    }
+}
