@@ -388,12 +388,12 @@ impl<const K: usize> Controller<K> {
     /// One control tick. Never fails, never panics; the torque is finite and within the limit.
     ///
     /// The stages, in order (docs/design.md, section 6):
-    /// 1. [`estimate_hub`](Self::estimate_hub): the angle and rate from the counter;
-    /// 2. [`take_start`](Self::take_start): a pending start moves Idle or Holding to Slewing;
-    /// 3. [`estimate_strain`](Self::estimate_strain): the strain and its rate;
-    /// 4. [`detect_faults`](Self::detect_faults): any fault latches the Fault mode;
-    /// 5. [`advance`](Self::advance): the reference point, Slewing to Holding at the end;
-    /// 6. [`command`](Self::command): the law, saturation, and the stall watch.
+    /// 1. `estimate_hub`: the angle and rate from the counter;
+    /// 2. `take_start`: a pending start moves Idle or Holding to Slewing;
+    /// 3. `estimate_strain`: the strain and its rate;
+    /// 4. `detect_faults`: any fault latches the Fault mode;
+    /// 5. `advance`: the reference point, Slewing to Holding at the end;
+    /// 6. `command`: the law, saturation, and the stall watch.
     pub fn step(&mut self, raw: &RawMeasurement) -> TorqueCommand {
         let hub = self.estimate_hub(raw);
         let mut faults = hub.faults;
