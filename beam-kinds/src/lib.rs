@@ -89,6 +89,31 @@ named_enum! {
         Smc = "smc", "the paper's SMC on the hub angle";
         /// The sliding-mode controller on the blended output `theta + c * root strain`.
         SmcStrain = "smc-strain", "SMC on theta + c * root strain";
+        /// Rigid-body feedforward (the whole hub, beam and payload inertia times the reference
+        /// acceleration) plus PD: the practical peer, usually run with a shaped reference.
+        PdFf = "pd-ff", "rigid-body feedforward plus PD (the practical peer)";
+        /// Integral sliding mode with rigid-body feedforward: continuous, and it rejects a
+        /// constant load up to the switching gain times Jeff.
+        SmcI = "smc-i", "integral sliding mode with rigid-body feedforward";
+    }
+}
+
+named_enum! {
+    /// The input shaper applied to a move's reference (docs/design.md, section 3): a train of
+    /// impulses the base move is convolved with, so that it does not excite a mode.
+    #[derive(Default)]
+    pub enum ShaperKind ("shaper") {
+        /// No shaping: the base move as planned.
+        #[default]
+        None = "none", "no shaping";
+        /// Zero vibration: two impulses, half a damped period apart.
+        Zv = "zv", "zero vibration: 2 impulses over half a period";
+        /// Zero vibration and derivative: three impulses over one damped period, robust to
+        /// frequency error.
+        Zvd = "zvd", "zero vibration and derivative: 3 impulses over one period";
+        /// Extra-insensitive: three impulses over one period, residual vibration at most the
+        /// tolerance over a wider band.
+        Ei = "ei", "extra-insensitive: 3 impulses, vibration within a tolerance over a wide band";
     }
 }
 
@@ -172,18 +197,21 @@ mod tests {
         for &p in Preset::ALL {
             assert_eq!(p.name().parse::<Preset>(), Ok(p));
         }
+        for &k in ShaperKind::ALL {
+            assert_eq!(k.name().parse::<ShaperKind>(), Ok(k));
+        }
         assert_eq!(LawKind::SmcStrain.name(), "smc-strain");
     }
 
     #[test]
     fn an_unknown_name_lists_the_choices() {
         let e = "lqr".parse::<LawKind>().unwrap_err();
-        let mut buf = [0u8; 80];
+        let mut buf = [0u8; 96];
         let mut w = Buf(&mut buf, 0);
         core::fmt::write(&mut w, format_args!("{e}")).unwrap();
         assert_eq!(
             core::str::from_utf8(&w.0[..w.1]).unwrap(),
-            "unknown control law; expected one of pd, smc, smc-strain"
+            "unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i"
         );
         assert!(
             "Smc".parse::<LawKind>().is_err(),

@@ -12,8 +12,12 @@
 //! optionally, the hub within a given angle of the target at 0.6 s.
 
 use host_tests::metrics::{cost, metrics, CostSpec, Metrics};
-use host_tests::sim::{simulate, SimError, SimOptions, SimResult};
-use model_core::{Law, LawKind, ModalModel, PdGains, SmcGains, StrainSmcGains, Switching};
+use host_tests::sim::Motion;
+use host_tests::sim::{simulate, simulate_mismatched, SimError, SimOptions, SimResult};
+use model_core::{
+    Beam, BeamParams, Law, LawKind, ModalModel, PdFfGains, PdGains, SmcGains, SmcIGains,
+    StrainSmcGains, Switching,
+};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -63,7 +67,15 @@ impl Param {
 pub fn default_params<const N: usize>(kind: LawKind, model: &ModalModel<N>) -> Vec<Param> {
     let p = |name, lo, hi, log| Param { name, lo, hi, log };
     match kind {
-        LawKind::Pd => vec![p("kp", 0.5, 200.0, true), p("kd", 0.01, 20.0, true)],
+        LawKind::Pd | LawKind::PdFf => {
+            vec![p("kp", 0.5, 200.0, true), p("kd", 0.01, 20.0, true)]
+        }
+        LawKind::SmcI => vec![
+            p("w", 1.0, 200.0, true),
+            p("wi", 0.1, 10000.0, true),
+            p("a", 10.0, 5000.0, true),
+            p("beta", 0.003, 5.0, true),
+        ],
         LawKind::Smc => vec![
             p("w", 1.0, 200.0, true),
             p("a", 10.0, 5000.0, true),
@@ -89,6 +101,89 @@ pub fn default_params<const N: usize>(kind: LawKind, model: &ModalModel<N>) -> V
     }
 }
 
+/// The hold test: `nm` on the hub from `at_s` to `until_s` (s after the move starts, the hub
+/// at rest at the target); the hub may move at most `max_dev_deg` while loaded and must be
+/// back within 0.1 deg `recover_s` after the load is removed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoadHold {
+    /// Load torque, N m.
+    pub nm: f64,
+    /// Applied at, s.
+    pub at_s: f64,
+    /// Removed at, s.
+    pub until_s: f64,
+    /// Largest hub deviation allowed while loaded, deg.
+    pub max_dev_deg: f64,
+    /// Longest recovery allowed after removal, s.
+    pub recover_s: f64,
+}
+
+impl LoadHold {
+    /// The test: 0.5 N m from 1.0 s to 1.5 s, at most 1 deg, back in 0.3 s.
+    pub const DEFAULT: LoadHold = LoadHold {
+        nm: 0.5,
+        at_s: 1.0,
+        until_s: 1.5,
+        max_dev_deg: 1.0,
+        recover_s: 0.3,
+    };
+
+    /// The run's fault injection for this test.
+    pub fn injection(&self) -> host_tests::sim::Injection {
+        host_tests::sim::Injection {
+            kind: host_tests::sim::FaultKind::LoadTorque {
+                nm: self.nm,
+                for_s: self.until_s - self.at_s,
+            },
+            at_s: self.at_s,
+        }
+    }
+
+    /// How far `m` (metrics of a run with this load) is from passing: <= 0 passes.
+    pub fn violation(&self, m: &Metrics) -> f64 {
+        let dev = m
+            .hold_max_dev_deg
+            .map_or(1e3, |d| d / self.max_dev_deg - 1.0);
+        let rec = match m.hold_recover_s {
+            Some(Some(r)) => r / self.recover_s - 1.0,
+            _ => 1e3,
+        };
+        dev.max(rec)
+    }
+}
+
+/// One plant and move of a robust design. The drive's law is built on the nominal model (at
+/// the nominal payload); the plant is this one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scenario {
+    /// The plant's parameters.
+    pub plant: BeamParams,
+    /// The move (its shaper's frequency and damping are replaced by the searched ones).
+    pub motion: Motion,
+}
+
+/// The `q` quantile of `values` (linear interpolation between order statistics); NaN for
+/// none. Infinite values count as the largest.
+pub fn quantile(values: &mut [f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(|a, b| a.total_cmp(b));
+    let pos = q.clamp(0.0, 1.0) * (values.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    let f = pos - lo as f64;
+    if f == 0.0 || !values[hi].is_finite() {
+        values[if f == 0.0 { lo } else { hi }]
+    } else {
+        values[lo] + f * (values[hi] - values[lo])
+    }
+}
+
+/// The name of the searched shaper frequency among a spec's parameters.
+pub const SHAPER_HZ: &str = "shaper_hz";
+/// The name of the searched shaper damping ratio among a spec's parameters.
+pub const SHAPER_DAMPING: &str = "shaper_damping";
+
 /// What to optimise and how hard.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spec {
@@ -98,6 +193,9 @@ pub struct Spec {
     pub params: Vec<Param>,
     /// Switching function (SMC).
     pub switching: Switching,
+    /// The move designed for, with its shaper (whose frequency is searched as `shaper_hz`
+    /// when the params include it).
+    pub motion: Motion,
     /// Keep the model terms (smc-strain).
     pub model_terms: bool,
     /// Cost weights, windows and units.
@@ -108,6 +206,13 @@ pub struct Spec {
     /// long). J looks only to 0.6 s; without this, gains that stop the beam but let the hub
     /// creep toward the target for seconds score well.
     pub hold: Option<(f64, f64)>,
+    /// Constraint: a step load applied at rest after the move is held and recovered from.
+    pub load_hold: Option<LoadHold>,
+    /// Robust design: the plants and moves every candidate runs on (the same set for every
+    /// candidate: common random numbers). Empty: the nominal plant and `motion` only.
+    pub scenarios: Vec<Scenario>,
+    /// Robust design: the quantile of J over the scenarios that is minimised (0.95: p95).
+    pub quantile: f64,
     /// Constraint: peak commanded torque at most this fraction of the drive limit.
     pub torque_fraction: f64,
     /// Latin-hypercube samples of the global stage.
@@ -191,26 +296,132 @@ pub fn law_for(spec: &Spec, x: &[f64]) -> Law {
             c: get("c", 0.0),
             model_terms: spec.model_terms,
         }),
+        LawKind::PdFf => Law::PdFf(PdFfGains {
+            kp: get("kp", 20.0),
+            kd: get("kd", 1.0),
+        }),
+        LawKind::SmcI => Law::SmcI(SmcIGains {
+            w: get("w", 10.0),
+            wi: get("wi", 25.0),
+            a: get("a", 100.0),
+            beta: get("beta", 0.1),
+            switching: spec.switching,
+        }),
     }
+}
+
+/// The move for gains `x`: the spec's move, with the shaper's frequency taken from the
+/// `shaper_hz` parameter when it is searched.
+pub fn motion_for(spec: &Spec, x: &[f64]) -> Motion {
+    let mut m = spec.motion;
+    if let Some(i) = spec.params.iter().position(|p| p.name == SHAPER_HZ) {
+        m.shaper.freq_hz = x[i] as f32;
+    }
+    if let Some(i) = spec.params.iter().position(|p| p.name == SHAPER_DAMPING) {
+        m.shaper.damping = x[i] as f32;
+    }
+    m
 }
 
 /// Simulated time a cost evaluation needs: the end of the later window (at least 0.6 s for
 /// the hub-error constraint).
 fn eval_duration(spec: &Spec) -> f64 {
-    let hold = spec.hold.map_or(0.0, |h| h.0);
+    let hold = spec.hold.map_or(0.0, |h| h.0).max(
+        spec.load_hold
+            .map_or(0.0, |h| h.until_s + h.recover_s + 0.2),
+    );
+    // A stretched shaped move ends up to a shaper's length (below a second) later.
+    let later = match spec.motion.timing {
+        model_core::Timing::Stretch if spec.motion.shaper.kind != model_core::ShaperKind::None => {
+            1.0
+        }
+        _ => 0.0,
+    };
     spec.cost
         .angle_window
         .1
         .max(spec.cost.strain_window.1)
         .max(0.6)
         .max(hold)
+        + later
 }
 
-/// Runs the closed loop for gains `x` and scores it.
+/// Runs the closed loop for gains `x` and scores it: on the nominal plant, or over the
+/// spec's scenarios (robust design).
 pub fn evaluate<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
+    if spec.scenarios.is_empty() {
+        evaluate_nominal(model, spec, x)
+    } else {
+        evaluate_robust(model, spec, x)
+    }
+}
+
+/// Robust score: the spec's quantile of J over the scenarios; constraints: peak torque in
+/// every scenario, the hub error at the move's end + 0.25 s at that quantile, and the load
+/// test in every scenario.
+fn evaluate_robust<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
+    let law = law_for(spec, x);
+    let searched = motion_for(spec, x).shaper;
+    let runs: Vec<Option<Evaluation>> = spec
+        .scenarios
+        .par_iter()
+        .map(|sc| {
+            let plant = ModalModel::<N>::try_build(&Beam::try_build(sc.plant).ok()?).ok()?;
+            let mut motion = sc.motion;
+            if motion.shaper.kind != model_core::ShaperKind::None {
+                motion.shaper.freq_hz = searched.freq_hz;
+                motion.shaper.damping = searched.damping;
+            }
+            let opts = SimOptions {
+                duration_s: eval_duration(spec),
+                motion,
+                fault: spec.load_hold.map(|h| h.injection()),
+                sensors: host_tests::sensors::SensorConfig {
+                    seed: spec.seed,
+                    ..Default::default()
+                },
+                ..SimOptions::default()
+            };
+            let run = simulate_mismatched(&plant, model, law, &opts).ok()?;
+            score(&plant, spec, x, law, &run)
+        })
+        .collect();
+    let infeasible = Evaluation {
+        gains: x.to_vec(),
+        law,
+        cost: f64::INFINITY,
+        angle_term: f64::INFINITY,
+        strain_term: f64::INFINITY,
+        violation: 1e3,
+    };
+    let Some(runs) = runs.into_iter().collect::<Option<Vec<Evaluation>>>() else {
+        return infeasible;
+    };
+    let q = |f: fn(&Evaluation) -> f64| {
+        quantile(&mut runs.iter().map(f).collect::<Vec<_>>(), spec.quantile)
+    };
+    Evaluation {
+        gains: x.to_vec(),
+        law,
+        cost: q(|e| e.cost),
+        angle_term: q(|e| e.angle_term),
+        strain_term: q(|e| e.strain_term),
+        // Each scenario's violation already combines torque, hub error and load test; the
+        // torque and load parts must hold everywhere, so take the worst.
+        violation: runs
+            .iter()
+            .map(|e| e.violation)
+            .fold(f64::NEG_INFINITY, f64::max),
+    }
+}
+
+/// Runs the closed loop for gains `x` on the nominal plant and scores it.
+fn evaluate_nominal<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
     let law = law_for(spec, x);
     let opts = SimOptions {
         duration_s: eval_duration(spec),
+        motion: motion_for(spec, x),
+        fault: spec.load_hold.map(|h| h.injection()),
         sensors: host_tests::sensors::SensorConfig {
             seed: spec.seed,
             ..Default::default()
@@ -253,26 +464,20 @@ fn score<const N: usize>(
         let k = run.samples.iter().position(|s| s.t >= t - 1e-9)?;
         Some((run.samples[k].theta - run.theta_final).abs().to_degrees())
     };
+    // Times are the paper's, kept relative to the move's end for a move that ends later.
+    let dt = run.move_end_s - host_tests::sim::SLEW_TIME_S;
     if let Some(max_err) = spec.max_err_deg_0_6 {
-        violation = violation.max(err_at(0.6)? / max_err - 1.0);
+        violation = violation.max(err_at(0.6 + dt)? / max_err - 1.0);
     }
     if let Some((t, max_err)) = spec.hold {
-        violation = violation.max(err_at(t)? / max_err - 1.0);
+        violation = violation.max(err_at(t + dt)? / max_err - 1.0);
     }
-    let angle_term = cost(
-        run,
-        &CostSpec {
-            w2: 0.0,
-            ..spec.cost
-        },
-    );
-    let strain_term = cost(
-        run,
-        &CostSpec {
-            w1: 0.0,
-            ..spec.cost
-        },
-    );
+    if let Some(h) = spec.load_hold {
+        violation = violation.max(h.violation(&metrics(run)));
+    }
+    let windows = spec.cost.shifted(dt);
+    let angle_term = cost(run, &CostSpec { w2: 0.0, ..windows });
+    let strain_term = cost(run, &CostSpec { w1: 0.0, ..windows });
     Some(Evaluation {
         gains: x.to_vec(),
         law,
@@ -420,17 +625,22 @@ pub fn optimize<const N: usize>(
     }
 }
 
-/// Full-length metrics of `law` on `model` (for reporting a design against the baseline).
+/// Full-length metrics of `law` on `model` running `motion` (for reporting a design against
+/// the baseline), with the load test's load when given.
 pub fn full_metrics<const N: usize>(
     model: &ModalModel<N>,
     law: Law,
     seed: u64,
+    motion: Motion,
+    load: Option<LoadHold>,
 ) -> Result<Metrics, SimError> {
     let opts = SimOptions {
         sensors: host_tests::sensors::SensorConfig {
             seed,
             ..Default::default()
         },
+        motion,
+        fault: load.map(|h| h.injection()),
         ..SimOptions::default()
     };
     simulate(model, law, &opts).map(|r| metrics(&r))

@@ -30,6 +30,10 @@ fn spec(m: &ModalModel<3>, seed: u64) -> Spec {
         local_evals: 40,
         seed,
         warm_start: None,
+        load_hold: None,
+        motion: host_tests::sim::Motion::default(),
+        scenarios: vec![],
+        quantile: 0.95,
     }
 }
 

@@ -22,7 +22,7 @@ pub const CONTROLLER: LawKind = LawKind::Smc;
 pub fn law_for(kind: LawKind, payload_kg: f32) -> Option<Law> {
     schedule(GAIN_TABLE, kind, payload_kg).or(match kind {
         LawKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
-        LawKind::Smc | LawKind::SmcStrain => None,
+        LawKind::Smc | LawKind::SmcStrain | LawKind::PdFf | LawKind::SmcI => None,
     })
 }
 

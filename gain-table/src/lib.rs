@@ -7,7 +7,7 @@
 //! Rows are grouped by controller; within a controller they are sorted by payload with no
 //! duplicates, so the controller can interpolate between neighbours at run time.
 
-pub use beam_kinds::{LawKind, Preset, Switching};
+pub use beam_kinds::{LawKind, Preset, ShaperKind, Switching};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -27,6 +27,31 @@ pub struct Row {
     pub modes: u32,
     /// The cost J they achieved (for the record).
     pub cost_j: f64,
+    /// The input shaper designed with the gains (`shaper = "none"` or absent: none).
+    pub shaper: ShaperRow,
+}
+
+/// A row's input shaper: keys `shaper`, `shaper_hz`, `shaper_damping`, `shaper_tolerance`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShaperRow {
+    /// The impulse train.
+    pub kind: ShaperKind,
+    /// The shaped mode's frequency, Hz.
+    pub hz: f64,
+    /// Its damping ratio.
+    pub damping: f64,
+    /// EI's vibration tolerance.
+    pub tolerance: f64,
+}
+
+impl ShaperRow {
+    /// No shaping.
+    pub const NONE: ShaperRow = ShaperRow {
+        kind: ShaperKind::None,
+        hz: 0.0,
+        damping: 0.0,
+        tolerance: 0.05,
+    };
 }
 
 /// The keys every row has besides `controller` and the gains.
@@ -37,6 +62,18 @@ struct Common {
     preset: Preset,
     modes: u32,
     cost_j: f64,
+    #[serde(default)]
+    shaper: ShaperKind,
+    #[serde(default)]
+    shaper_hz: f64,
+    #[serde(default)]
+    shaper_damping: f64,
+    #[serde(default = "default_tolerance")]
+    shaper_tolerance: f64,
+}
+
+fn default_tolerance() -> f64 {
+    0.05
 }
 
 /// A law's gains as the table stores them (f64; the build rounds them to the f32 the drive
@@ -50,6 +87,27 @@ pub enum Gains {
     Smc(SmcRow),
     /// `controller = "smc-strain"`.
     SmcStrain(StrainSmcRow),
+    /// `controller = "pd-ff"`.
+    PdFf(PdRow),
+    /// `controller = "smc-i"`.
+    SmcI(SmcIRow),
+}
+
+/// The integral sliding mode's gains.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SmcIRow {
+    /// Surface slope W, 1/s.
+    pub w: f64,
+    /// Integral slope Wi, 1/s^2.
+    pub wi: f64,
+    /// Switching gain A, rad/s^2.
+    pub a: f64,
+    /// Boundary-layer slope beta, s/rad.
+    pub beta: f64,
+    /// Switching function (default tanh).
+    #[serde(default)]
+    pub switching: Switching,
 }
 
 /// PD gains.
@@ -104,6 +162,8 @@ impl Gains {
             Gains::Pd(_) => LawKind::Pd,
             Gains::Smc(_) => LawKind::Smc,
             Gains::SmcStrain(_) => LawKind::SmcStrain,
+            Gains::PdFf(_) => LawKind::PdFf,
+            Gains::SmcI(_) => LawKind::SmcI,
         }
     }
 
@@ -111,7 +171,8 @@ impl Gains {
     /// agree on them: the switching function and the model-terms flag.
     fn discrete(&self) -> (Option<Switching>, bool) {
         match self {
-            Gains::Pd(_) => (None, false),
+            Gains::Pd(_) | Gains::PdFf(_) => (None, false),
+            Gains::SmcI(g) => (Some(g.switching), false),
             Gains::Smc(g) => (Some(g.switching), false),
             Gains::SmcStrain(g) => (Some(g.switching), g.model_terms),
         }
@@ -120,7 +181,8 @@ impl Gains {
     /// The gains' numbers, named as in the file, in file order.
     pub fn numbers(&self) -> Vec<(&'static str, f64)> {
         match self {
-            Gains::Pd(g) => vec![("kp", g.kp), ("kd", g.kd)],
+            Gains::Pd(g) | Gains::PdFf(g) => vec![("kp", g.kp), ("kd", g.kd)],
+            Gains::SmcI(g) => vec![("w", g.w), ("wi", g.wi), ("a", g.a), ("beta", g.beta)],
             Gains::Smc(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta)],
             Gains::SmcStrain(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta), ("c", g.c)],
         }
@@ -133,13 +195,16 @@ impl Gains {
             LawKind::Pd => Gains::Pd(v.try_into()?),
             LawKind::Smc => Gains::Smc(v.try_into()?),
             LawKind::SmcStrain => Gains::SmcStrain(v.try_into()?),
+            LawKind::PdFf => Gains::PdFf(v.try_into()?),
+            LawKind::SmcI => Gains::SmcI(v.try_into()?),
         })
     }
 
     /// The gains' keys.
     fn to_table(&self) -> toml::Table {
         let v = match self {
-            Gains::Pd(g) => toml::Value::try_from(g),
+            Gains::Pd(g) | Gains::PdFf(g) => toml::Value::try_from(g),
+            Gains::SmcI(g) => toml::Value::try_from(g),
             Gains::Smc(g) => toml::Value::try_from(g),
             Gains::SmcStrain(g) => toml::Value::try_from(g),
         };
@@ -238,6 +303,7 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
             for (field, same) in [
                 ("switching", sw == prev_sw),
                 ("model_terms", mt == prev_mt),
+                ("shaper", r.shaper.kind == prev.shaper.kind),
                 ("preset", r.preset == prev.preset),
                 ("modes", r.modes == prev.modes),
             ] {
@@ -273,7 +339,16 @@ fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)
             ))
         }
     };
-    const COMMON: [&str; 4] = ["payload_kg", "preset", "modes", "cost_j"];
+    const COMMON: [&str; 8] = [
+        "payload_kg",
+        "preset",
+        "modes",
+        "cost_j",
+        "shaper",
+        "shaper_hz",
+        "shaper_damping",
+        "shaper_tolerance",
+    ];
     let mut common = toml::Table::new();
     for key in COMMON {
         if let Some(v) = table.remove(key) {
@@ -290,6 +365,12 @@ fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)
         preset: c.preset,
         modes: c.modes,
         cost_j: c.cost_j,
+        shaper: ShaperRow {
+            kind: c.shaper,
+            hz: c.shaper_hz,
+            damping: c.shaper_damping,
+            tolerance: c.shaper_tolerance,
+        },
     })
 }
 
@@ -298,7 +379,13 @@ fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
     if !(1..=4).contains(&r.modes) {
         return Err(("modes", format!("{} is not 1 to 4", r.modes)));
     }
-    let mut numbers = vec![("payload_kg", r.payload_kg), ("cost_j", r.cost_j)];
+    let mut numbers = vec![
+        ("payload_kg", r.payload_kg),
+        ("cost_j", r.cost_j),
+        ("shaper_hz", r.shaper.hz),
+        ("shaper_damping", r.shaper.damping),
+        ("shaper_tolerance", r.shaper.tolerance),
+    ];
     numbers.extend(r.gains.numbers());
     for (field, v) in numbers {
         if !v.is_finite() {
@@ -317,6 +404,25 @@ fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
     }
     if r.cost_j < 0.0 {
         return Err(("cost_j", "a cost cannot be negative".into()));
+    }
+    if r.shaper.kind != ShaperKind::None {
+        if !(r.shaper.hz > 0.0) {
+            return Err(("shaper_hz", format!("{} must be > 0", r.shaper.hz)));
+        }
+        if !(0.0..1.0).contains(&r.shaper.damping) {
+            return Err((
+                "shaper_damping",
+                format!("{} is outside [0, 1)", r.shaper.damping),
+            ));
+        }
+        if r.shaper.kind == ShaperKind::Ei
+            && !(r.shaper.tolerance > 0.0 && r.shaper.tolerance < 0.5)
+        {
+            return Err((
+                "shaper_tolerance",
+                format!("{} is outside (0, 0.5)", r.shaper.tolerance),
+            ));
+        }
     }
     let positive = |field, v: f64| {
         if v > 0.0 {
@@ -338,9 +444,13 @@ fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
         positive("beta", beta)
     };
     match &r.gains {
-        Gains::Pd(g) => {
+        Gains::Pd(g) | Gains::PdFf(g) => {
             non_negative("kp", g.kp)?;
             non_negative("kd", g.kd)
+        }
+        Gains::SmcI(g) => {
+            smc(g.w, g.a, g.beta)?;
+            non_negative("wi", g.wi)
         }
         Gains::Smc(g) => smc(g.w, g.a, g.beta),
         // The blend's own limit (1 - c gamma >= 0.2) needs the model: model-core checks it
@@ -379,6 +489,14 @@ pub fn render(rows: &[Row]) -> String {
         t.insert("preset".into(), r.preset.name().into());
         t.insert("modes".into(), i64::from(r.modes).into());
         t.insert("cost_j".into(), r.cost_j.into());
+        if r.shaper.kind != ShaperKind::None {
+            t.insert("shaper".into(), r.shaper.kind.name().into());
+            t.insert("shaper_hz".into(), r.shaper.hz.into());
+            t.insert("shaper_damping".into(), r.shaper.damping.into());
+            if r.shaper.kind == ShaperKind::Ei {
+                t.insert("shaper_tolerance".into(), r.shaper.tolerance.into());
+            }
+        }
         out.push_str(&toml::to_string(&t).unwrap_or_default());
     }
     out
@@ -437,9 +555,28 @@ pub fn generate_rust(rows: &[Row]) -> String {
                 g.c as f32,
                 g.model_terms
             ),
+            Gains::PdFf(g) => format!(
+                "crate::law::Law::PdFf(crate::law::PdFfGains {{ kp: {:?}, kd: {:?} }})",
+                g.kp as f32, g.kd as f32
+            ),
+            Gains::SmcI(g) => format!(
+                "crate::law::Law::SmcI(crate::law::SmcIGains {{ w: {:?}, wi: {:?}, a: {:?}, beta: {:?}, switching: {} }})",
+                g.w as f32,
+                g.wi as f32,
+                g.a as f32,
+                g.beta as f32,
+                switching(g.switching)
+            ),
         };
+        let shaper = format!(
+            "crate::shaper::Shaper {{ kind: ::beam_kinds::ShaperKind::{:?}, freq_hz: {:?}, damping: {:?}, tolerance: {:?} }}",
+            r.shaper.kind,
+            r.shaper.hz as f32,
+            r.shaper.damping as f32,
+            r.shaper.tolerance as f32
+        );
         out.push_str(&format!(
-            "    crate::gains::GainRow {{ payload_kg: {:?}, law: {law} }},\n",
+            "    crate::gains::GainRow {{ payload_kg: {:?}, law: {law}, shaper: {shaper} }},\n",
             r.payload_kg as f32
         ));
     }
@@ -507,7 +644,7 @@ cost_j = 2.0
         assert_eq!((e.row, e.field), (Some(1), Some("controller")));
         assert_eq!(
             e.message,
-            "`lqr`: unknown control law; expected one of pd, smc, smc-strain"
+            "`lqr`: unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i"
         );
         assert_eq!(bad("modes = 3", "modes = 7").field, Some("modes"));
         let e = bad("preset = \"aluminium\"", "preset = \"steel\"");

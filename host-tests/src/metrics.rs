@@ -2,10 +2,16 @@
 //!
 //! Windows follow the paper: tracking over the move (0..0.35 s), residual vibration after it,
 //! the cost J with hub error over 0..0.6 s and root strain over 0.4..0.6 s (W1 = 1, W2 = 10,
-//! angle in radians, strain in microstrain). A run the validity guard stopped has no metrics:
-//! only the breakdown time is reported, never numbers from outside the model's range.
+//! angle in radians, strain in microstrain). For another move the windows keep their place
+//! relative to the move's end T: residual strain over T + 0.05..T + 0.25 s, hub error at
+//! T + 0.25 s (the field names keep the paper's times). A run the validity guard stopped has
+//! no metrics: only the breakdown time is reported, never numbers from outside the model's
+//! range.
 
 use crate::sim::{SimResult, SLEW_TIME_S};
+
+/// Where the hub must come back to after a load is removed, deg.
+pub const HOLD_BAND_DEG: f64 = 0.1;
 use serde::Serialize;
 
 /// Band around the target the tip angle must stay in to count as settled, deg.
@@ -41,6 +47,22 @@ impl Default for CostSpec {
     }
 }
 
+impl CostSpec {
+    /// The same spec with both windows moved by `dt` seconds (for a move ending `dt` after the
+    /// paper's 0.35 s).
+    pub fn shifted(self, dt: f64) -> Self {
+        if dt == 0.0 {
+            return self;
+        }
+        let shift = |(a, b): (f64, f64)| (a + dt, b + dt);
+        CostSpec {
+            angle_window: (self.angle_window.0, self.angle_window.1 + dt),
+            strain_window: shift(self.strain_window),
+            ..self
+        }
+    }
+}
+
 /// The metrics `beam simulate --json` prints. `None` (JSON null) where the run is too short
 /// or stopped by the validity guard.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -65,6 +87,13 @@ pub struct Metrics {
     pub cost_j: Option<f64>,
     /// When the validity guard stopped the run, s.
     pub breakdown_at_s: Option<f64>,
+    /// With a load: the largest |theta - theta_final| while it was applied, deg.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hold_max_dev_deg: Option<f64>,
+    /// With a load: time after its removal until the hub is back within 0.1 deg of the
+    /// target and stays, s; JSON null if never within the run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hold_recover_s: Option<Option<f64>>,
 }
 
 const UE: f64 = 1e6;
@@ -93,12 +122,33 @@ pub fn metrics(run: &SimResult) -> Metrics {
         s.get(k)
             .map(|x| (x.theta - run.theta_final).abs().to_degrees())
     };
-    let after_move = SLEW_TIME_S;
+    let after_move = run.move_end_s;
     let has_after = end >= after_move;
+    let (residual_from, residual_to) = (after_move + 0.05, after_move + 0.25);
     let rms = {
-        let v: Vec<f64> = in_window(0.4, 0.6).map(|x| x.root_strain * UE).collect();
-        (end >= 0.6 && !v.is_empty())
+        let v: Vec<f64> = in_window(residual_from, residual_to)
+            .map(|x| x.root_strain * UE)
+            .collect();
+        (end >= residual_to - 1e-9 && !v.is_empty())
             .then(|| (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt())
+    };
+    let (hold_max_dev_deg, hold_recover_s) = match run.load_window {
+        None => (None, None),
+        Some((from, until)) => {
+            let dev = |x: &crate::sim::Sample| (x.theta - run.theta_final).abs().to_degrees();
+            let max_dev = in_window(from, until)
+                .map(dev)
+                .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+            let last_out = s
+                .iter()
+                .rposition(|x| x.t >= until - 1e-9 && dev(x) > HOLD_BAND_DEG);
+            let recover = match last_out {
+                None => Some(0.0),
+                Some(k) if k + 1 < s.len() => Some(s[k + 1].t - until),
+                Some(_) => None,
+            };
+            (max_dev, Some(recover.filter(|_| end >= until)))
+        }
     };
     let band = SETTLE_BAND_DEG.to_radians();
     let settle_s = match s
@@ -111,9 +161,9 @@ pub fn metrics(run: &SimResult) -> Metrics {
     };
     Metrics {
         max_track_err_deg: max_abs(
-            &mut in_window(0.0, SLEW_TIME_S).map(|x| (x.theta - x.theta_ref).to_degrees()),
+            &mut in_window(0.0, after_move).map(|x| (x.theta - x.theta_ref).to_degrees()),
         ),
-        err_deg_t0_6: at(0.6),
+        err_deg_t0_6: at(residual_to),
         err_deg_t2_0: at(2.0),
         max_root_strain_ue_after_move: has_after
             .then(|| max_abs(&mut in_window(after_move, end).map(|x| x.root_strain * UE)))
@@ -124,8 +174,11 @@ pub fn metrics(run: &SimResult) -> Metrics {
             .flatten(),
         peak_torque_nm: max_abs(&mut s.iter().map(|x| x.torque)),
         settle_s,
-        cost_j: (end >= 0.6).then(|| cost(run, &CostSpec::default())),
+        cost_j: (end >= residual_to - 1e-9)
+            .then(|| cost(run, &CostSpec::default().shifted(after_move - SLEW_TIME_S))),
         breakdown_at_s: None,
+        hold_max_dev_deg,
+        hold_recover_s,
     }
 }
 

@@ -11,9 +11,10 @@ use crate::sensors::{SensorConfig, Sensors};
 use model_core::controller::ConfigError;
 use model_core::spline::paper_slew;
 use model_core::{
-    ControlLaw, Controller, ControllerSettings, Law, LawKind, ModalModel, Mode, PdGains,
-    RawMeasurement, SmcGains, Spline, StrainSmcGains, Switching, TorqueCommand,
+    ControlLaw, Controller, ControllerSettings, Law, LawKind, ModalModel, Mode, PdFfGains, PdGains,
+    RawMeasurement, SmcGains, SmcIGains, Spline, StrainSmcGains, Switching, TorqueCommand,
 };
+use model_core::{Shaper, Timing};
 
 /// The paper's move time AT, s, as the host's metrics use it (model-core's
 /// `spline::paper_slew` is the one definition of the slew).
@@ -38,13 +39,30 @@ pub const HAND_PICKED_SMC_STRAIN: StrainSmcGains = StrainSmcGains {
     model_terms: false,
 };
 
+/// The integral sliding mode's starting gains: the hand-picked SMC's surface with a
+/// critically damped integral (Wi = W^2/4) and A sized so that Jeff A (0.72 N m on the
+/// aluminium beam) exceeds the 0.5 N m load the drive must hold.
+pub const HAND_PICKED_SMC_I: SmcIGains = SmcIGains {
+    w: 10.0,
+    wi: 25.0,
+    a: 100.0,
+    beta: 0.1,
+    switching: Switching::Tanh,
+};
+
 /// The law of `kind` with the gains used when neither the command line nor the gain table
-/// gives them: PD's baseline (Kp 20, Kd 1) and the hand-picked SMC gains.
+/// gives them: PD's baseline (Kp 20, Kd 1, also under the feedforward of pd-ff) and the
+/// hand-picked SMC gains.
 pub const fn hand_picked(kind: LawKind) -> Law {
     match kind {
         LawKind::Pd => Law::Pd(PdGains::BASELINE),
         LawKind::Smc => Law::Smc(HAND_PICKED_SMC),
         LawKind::SmcStrain => Law::SmcStrain(HAND_PICKED_SMC_STRAIN),
+        LawKind::PdFf => Law::PdFf(PdFfGains {
+            kp: PdGains::BASELINE.kp,
+            kd: PdGains::BASELINE.kd,
+        }),
+        LawKind::SmcI => Law::SmcI(HAND_PICKED_SMC_I),
     }
 }
 
@@ -90,6 +108,50 @@ pub struct SimOptions {
     pub sensors: SensorConfig,
     /// A fault injected during the run, if any.
     pub fault: Option<Injection>,
+    /// The move: the paper's slew unless changed.
+    pub motion: Motion,
+}
+
+/// A move as the host plans it, with model-core's planner: a minimum-jerk quintic from one
+/// angle to another, optionally shaped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    /// Start, rad (the hub is at rest there, and the encoder is zeroed there).
+    pub from_rad: f32,
+    /// End, rad.
+    pub to_rad: f32,
+    /// Duration of the base quintic, s (see `timing`).
+    pub time_s: f32,
+    /// The input shaper applied to the reference.
+    pub shaper: Shaper,
+    /// Whether the shaped move ends at `time_s` (base move shortened) or later.
+    pub timing: Timing,
+}
+
+impl Default for Motion {
+    fn default() -> Self {
+        Motion {
+            from_rad: paper_slew::FROM_RAD,
+            to_rad: paper_slew::TO_RAD,
+            time_s: paper_slew::TIME_S,
+            shaper: Shaper::NONE,
+            timing: Timing::Stretch,
+        }
+    }
+}
+
+impl Motion {
+    /// The reference spline, planned by model-core (the drive plans with the same code).
+    pub fn plan(&self) -> Result<Spline<MOVE_CAPACITY>, SimError> {
+        model_core::shaper::shaped_quintic(
+            self.from_rad,
+            self.to_rad,
+            self.time_s,
+            &self.shaper,
+            self.timing,
+        )
+        .map_err(SimError::Shaper)
+    }
 }
 
 impl Default for SimOptions {
@@ -100,6 +162,7 @@ impl Default for SimOptions {
             idle_ticks: 50,
             sensors: SensorConfig::default(),
             fault: None,
+            motion: Motion::default(),
         }
     }
 }
@@ -185,6 +248,10 @@ pub struct SimResult {
     pub breakdown: Option<(f64, Breakdown)>,
     /// The move's final angle, rad.
     pub theta_final: f64,
+    /// When the move's reference ends, s (0.35 for the paper's slew).
+    pub move_end_s: f64,
+    /// The external load applied, if any: from when to when, s.
+    pub load_window: Option<(f64, f64)>,
     /// The controller's latched faults at the end.
     pub faults: model_core::FaultFlags,
 }
@@ -198,6 +265,9 @@ pub enum SimError {
     /// The move was rejected.
     #[error("move")]
     Spline(#[source] model_core::SplineError),
+    /// The shaped move was rejected.
+    #[error("move")]
+    Shaper(#[source] model_core::ShaperError),
     /// An option is out of range.
     #[error("{0}")]
     Option(&'static str),
@@ -250,10 +320,13 @@ pub fn simulate_mismatched<const N: usize>(
     law: Law,
     opts: &SimOptions,
 ) -> Result<SimResult, SimError> {
-    let settings = settings_for(nominal, &opts.sensors);
+    let settings = ControllerSettings {
+        theta_home_rad: opts.motion.from_rad,
+        ..settings_for(nominal, &opts.sensors)
+    };
     let law = ControlLaw::try_build(law, nominal).map_err(|e| SimError::Config(e.into()))?;
     let controller =
-        Controller::try_build(settings, law, paper_slew()?).map_err(SimError::Config)?;
+        Controller::try_build(settings, law, opts.motion.plan()?).map_err(SimError::Config)?;
     run(Plant::new(*plant), controller, opts)
 }
 
@@ -435,6 +508,11 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
         samples,
         breakdown,
         theta_final: reference.end() as f64,
+        move_end_s: crate::decimal::f32_decimal(reference.duration_s()),
+        load_window: opts.fault.and_then(|f| match f.kind {
+            FaultKind::LoadTorque { for_s, .. } => Some((f.at_s, f.at_s + for_s)),
+            _ => None,
+        }),
         faults: drive.faults(),
     })
 }

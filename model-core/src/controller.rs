@@ -13,7 +13,7 @@
 
 pub use crate::error::{CommandError, ConfigError};
 use crate::error::{ParamError, ParamErrorKind};
-use crate::law::{ControlLaw, Estimate};
+use crate::law::{ControlLaw, Estimate, LawState};
 use crate::measure::{angle_rad, AdcSpec, CounterExtender, EncoderSpec, LowPass};
 use crate::spline::{RefPoint, Spline};
 use core::fmt;
@@ -217,6 +217,8 @@ struct State {
     ticks: u32,
     /// Consecutive ticks with no count change under substantial torque.
     stall_ticks: u32,
+    /// The law's own state (smc-i's integral), zeroed when a move starts.
+    law_state: LawState,
 }
 
 /// Ticks without an encoder count under substantial torque before [`FaultFlags::ENCODER_STUCK`].
@@ -473,6 +475,7 @@ impl<const K: usize> Controller<K> {
                 }
                 st.mode = Mode::Slewing;
                 st.ticks = 0;
+                st.law_state = LawState::default();
                 st.last_strain = None;
                 st.strain_rate = 0.0;
             }
@@ -560,7 +563,9 @@ impl<const K: usize> Controller<K> {
         let (cfg, st) = (&self.cfg, &mut self.st);
         let mut torque = 0.0;
         if let Some(r) = reference {
-            torque = cfg.law.torque_nm(x, r);
+            torque = cfg
+                .law
+                .torque_nm(x, r, &mut st.law_state, cfg.settings.ts_s);
             if !torque.is_finite() {
                 st.faults.insert(FaultFlags::NON_FINITE);
                 st.mode = Mode::Fault;

@@ -6,7 +6,8 @@
 //! drive is configured, not in the tick: the result is validated by `ControlLaw::try_build`
 //! and swapped in whole.
 
-use crate::law::{Law, LawKind, PdGains, SmcGains, StrainSmcGains};
+use crate::law::{Law, LawKind, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains};
+use crate::shaper::Shaper;
 
 /// One row of the table: the gains for one controller at one payload.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -15,6 +16,8 @@ pub struct GainRow {
     pub payload_kg: f32,
     /// The controller and its gains.
     pub law: Law,
+    /// The input shaper designed with them.
+    pub shaper: Shaper,
 }
 
 include!(concat!(env!("OUT_DIR"), "/gain_table.rs"));
@@ -38,6 +41,32 @@ pub fn schedule(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law
     Some(below.law)
 }
 
+/// The input shaper of law `kind` at `payload_kg`: its rows' shaper, frequency and damping
+/// interpolated like the gains. No shaping without rows.
+pub fn schedule_shaper(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Shaper {
+    let mut rows = table.iter().filter(|r| r.law.kind() == kind);
+    let Some(first) = rows.next() else {
+        return Shaper::NONE;
+    };
+    if !(payload_kg > first.payload_kg) {
+        return first.shaper;
+    }
+    let mut below = first;
+    for above in rows {
+        if payload_kg <= above.payload_kg {
+            let f = (payload_kg - below.payload_kg) / (above.payload_kg - below.payload_kg);
+            let mix = |a: f32, b: f32| a + (b - a) * f;
+            return Shaper {
+                freq_hz: mix(below.shaper.freq_hz, above.shaper.freq_hz),
+                damping: mix(below.shaper.damping, above.shaper.damping),
+                ..below.shaper
+            };
+        }
+        below = above;
+    }
+    below.shaper
+}
+
 fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
     let mix = |a: f32, b: f32| a + (b - a) * f;
     let smc = |a: &SmcGains, b: &SmcGains| SmcGains {
@@ -57,9 +86,20 @@ fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
             c: mix(a.c, b.c),
             model_terms: a.model_terms,
         }),
+        (Law::PdFf(a), Law::PdFf(b)) => Law::PdFf(PdFfGains {
+            kp: mix(a.kp, b.kp),
+            kd: mix(a.kd, b.kd),
+        }),
+        (Law::SmcI(a), Law::SmcI(b)) => Law::SmcI(SmcIGains {
+            w: mix(a.w, b.w),
+            wi: mix(a.wi, b.wi),
+            a: mix(a.a, b.a),
+            beta: mix(a.beta, b.beta),
+            switching: a.switching,
+        }),
         // Rows are filtered by kind, so kinds always match. Listed by variant, not `_`, so
         // that a new law is a compile error here until it says how its gains interpolate.
-        (Law::Pd(_) | Law::Smc(_) | Law::SmcStrain(_), _) => *lo,
+        (Law::Pd(_) | Law::Smc(_) | Law::SmcStrain(_) | Law::PdFf(_) | Law::SmcI(_), _) => *lo,
     }
 }
 
@@ -79,6 +119,7 @@ mod tests {
         GainRow {
             payload_kg: 0.0,
             law: Law::Smc(G),
+            shaper: Shaper::NONE,
         },
         GainRow {
             payload_kg: 0.05,
@@ -87,10 +128,12 @@ mod tests {
                 a: 300.0,
                 ..G
             }),
+            shaper: Shaper::NONE,
         },
         GainRow {
             payload_kg: 0.01,
             law: Law::Pd(PdGains { kp: 20.0, kd: 1.0 }),
+            shaper: Shaper::NONE,
         },
     ];
 

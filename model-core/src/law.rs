@@ -1,5 +1,5 @@
-//! The control laws: the paper's sliding-mode controller, the strain-augmented variant, and
-//! the PD baseline (docs/design.md, section 4).
+//! The control laws: the paper's sliding-mode controller, the strain-augmented variant, the
+//! PD baseline, feedforward plus PD, and the integral sliding mode (docs/design.md, section 4).
 //!
 //! [`Law`] is what a user chooses (gains and variant); [`ControlLaw::try_build`] validates it
 //! against a [`ModalModel`] once and folds the model into a few `f32` constants, so the
@@ -52,6 +52,37 @@ pub struct StrainSmcGains {
     pub model_terms: bool,
 }
 
+/// Feedforward-plus-PD gains: `tau = Mtt theta_r'' + Kp (theta_r - theta) + Kd (theta_r' -
+/// theta')`, with Mtt the whole rigid inertia (hub, beam and payload) about the axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PdFfGains {
+    /// Proportional gain, N m/rad.
+    pub kp: f32,
+    /// Derivative gain, N m s/rad.
+    pub kd: f32,
+}
+
+/// Integral sliding-mode gains. With `e = theta - theta_r` and `z` its integral over the move,
+/// the surface is `s = e' + W e + Wi z` and
+/// `tau = Mtt theta_r'' - Jeff (W e' + Wi e + A f(beta s))`: on `s = 0` the error obeys
+/// `e'' + W e' + Wi e = 0`, and a constant load `d` with `|d| < Jeff A` is absorbed by `z`, so
+/// the hub returns to the reference under it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SmcIGains {
+    /// Surface slope W, 1/s.
+    pub w: f32,
+    /// Integral slope Wi, 1/s^2.
+    pub wi: f32,
+    /// Switching gain A, rad/s^2: `Jeff A` is the largest load the drive holds.
+    pub a: f32,
+    /// Boundary-layer slope beta, s/rad.
+    pub beta: f32,
+    /// Switching function.
+    pub switching: Switching,
+}
+
 /// Which law runs, with its gains. Each variant carries only the gains its law uses; its
 /// [`LawKind`] is [`Law::kind`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,6 +94,10 @@ pub enum Law {
     Smc(SmcGains),
     /// The strain-augmented SMC on y = theta + c eps_root.
     SmcStrain(StrainSmcGains),
+    /// Rigid-body feedforward plus PD.
+    PdFf(PdFfGains),
+    /// The integral sliding mode with rigid-body feedforward.
+    SmcI(SmcIGains),
 }
 
 impl Law {
@@ -72,6 +107,8 @@ impl Law {
             Law::Pd(_) => LawKind::Pd,
             Law::Smc(_) => LawKind::Smc,
             Law::SmcStrain(_) => LawKind::SmcStrain,
+            Law::PdFf(_) => LawKind::PdFf,
+            Law::SmcI(_) => LawKind::SmcI,
         }
     }
 
@@ -95,6 +132,15 @@ pub struct Estimate {
     pub strain_rate: f32,
 }
 
+/// What a law carries from one tick to the next: the integral of the hub error (smc-i). Zero
+/// when a move starts.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LawState {
+    /// Integral of `theta - theta_r` since the move started, rad s.
+    pub integral: f32,
+}
+
 /// Smallest admissible `1 - c gamma`: the blended output's input gain relative to the hub's.
 /// Below it the surface's control direction nearly vanishes (or flips).
 const MIN_INPUT_GAIN_RATIO: f32 = 0.2;
@@ -105,6 +151,11 @@ pub struct ControlLaw {
     law: Law,
     /// Jeff for the paper law; [C M^-1 B]^-1 for the strain law, kg m^2.
     inertia: f32,
+    /// Mtt, the whole rigid inertia, for the laws with rigid-body feedforward, kg m^2.
+    rigid_inertia: f32,
+    /// The integral's bound (smc-i): `Jeff A beta Wi |z|` stays within the torque limit the
+    /// controller's settings give, so the integral cannot wind up past what it can use.
+    integral_max: f32,
     /// Model-term coefficients (strain law with `model_terms`), see `try_build`.
     model: ModelTerms,
 }
@@ -137,46 +188,74 @@ impl ControlLaw {
             }
         };
         let jeff = model.jeff;
+        let plain = Self {
+            law,
+            inertia: jeff as f32,
+            rigid_inertia: model.mtt as f32,
+            integral_max: 0.0,
+            model: ModelTerms::default(),
+        };
+        let pd = |kp: f32, kd: f32| {
+            finite("kp", kp)?;
+            finite("kd", kd)?;
+            if kp < 0.0 {
+                return bad("kp", ParamErrorKind::Negative);
+            }
+            if kd < 0.0 {
+                return bad("kd", ParamErrorKind::Negative);
+            }
+            Ok(())
+        };
+        let smc = |w: f32, a: f32, beta: f32| {
+            for (field, v) in [("w", w), ("a", a), ("beta", beta)] {
+                finite(field, v)?;
+            }
+            if !(w > 0.0) {
+                return bad("w", ParamErrorKind::NotPositive);
+            }
+            if a < 0.0 {
+                return bad("a", ParamErrorKind::Negative);
+            }
+            if !(beta > 0.0) {
+                return bad("beta", ParamErrorKind::NotPositive);
+            }
+            Ok(())
+        };
         match law {
             Law::Pd(g) => {
-                finite("kp", g.kp)?;
-                finite("kd", g.kd)?;
-                if g.kp < 0.0 {
-                    return bad("kp", ParamErrorKind::Negative);
-                }
-                if g.kd < 0.0 {
-                    return bad("kd", ParamErrorKind::Negative);
-                }
-                Ok(Self {
-                    law,
-                    inertia: jeff as f32,
-                    model: ModelTerms::default(),
-                })
+                pd(g.kp, g.kd)?;
+                Ok(plain)
             }
-            Law::Smc(g) | Law::SmcStrain(StrainSmcGains { smc: g, .. }) => {
-                for (field, v) in [("w", g.w), ("a", g.a), ("beta", g.beta)] {
-                    finite(field, v)?;
+            Law::PdFf(g) => {
+                pd(g.kp, g.kd)?;
+                Ok(plain)
+            }
+            Law::Smc(g) => {
+                smc(g.w, g.a, g.beta)?;
+                Ok(plain)
+            }
+            Law::SmcStrain(sg) => {
+                smc(sg.smc.w, sg.smc.a, sg.smc.beta)?;
+                finite("c", sg.c)?;
+                Self::strain_law(law, sg, model)
+            }
+            Law::SmcI(g) => {
+                smc(g.w, g.a, g.beta)?;
+                finite("wi", g.wi)?;
+                if g.wi < 0.0 {
+                    return bad("wi", ParamErrorKind::Negative);
                 }
-                if !(g.w > 0.0) {
-                    return bad("w", ParamErrorKind::NotPositive);
-                }
-                if g.a < 0.0 {
-                    return bad("a", ParamErrorKind::Negative);
-                }
-                if !(g.beta > 0.0) {
-                    return bad("beta", ParamErrorKind::NotPositive);
-                }
-                match law {
-                    Law::SmcStrain(sg) => {
-                        finite("c", sg.c)?;
-                        Self::strain_law(law, sg, model)
-                    }
-                    Law::Smc(_) | Law::Pd(_) => Ok(Self {
-                        law,
-                        inertia: jeff as f32,
-                        model: ModelTerms::default(),
-                    }),
-                }
+                // Jeff A beta Wi |z| <= the drive's limit (infinite without integral action).
+                let per_z = jeff * (g.a * g.beta * g.wi) as f64;
+                let limit = model.beam.params().torque_limit_nm;
+                Ok(Self {
+                    integral_max: if per_z > 0.0 {
+                        (limit / per_z) as f32
+                    } else {
+                        0.0
+                    },
+                    ..plain
+                })
             }
         }
     }
@@ -223,6 +302,8 @@ impl ControlLaw {
         Ok(Self {
             law,
             inertia: (1.0 / r_theta) as f32,
+            rigid_inertia: m.mtt as f32,
+            integral_max: 0.0,
             model,
         })
     }
@@ -232,10 +313,11 @@ impl ControlLaw {
         &self.law
     }
 
-    /// The unsaturated torque command for the estimate `x` and reference `r`, N m.
-    /// May be non-finite only if `x` or `r` is; the caller guards and saturates.
+    /// The unsaturated torque command for the estimate `x` and reference `r`, N m, advancing
+    /// the law's own state (the integral of smc-i) by one tick of `ts_s`. May be non-finite
+    /// only if `x` or `r` is; the caller guards and saturates.
     #[inline]
-    pub fn torque_nm(&self, x: &Estimate, r: &RefPoint) -> f32 {
+    pub fn torque_nm(&self, x: &Estimate, r: &RefPoint, state: &mut LawState, ts_s: f32) -> f32 {
         match self.law {
             Law::Pd(g) => g.kp * (r.pos - x.theta) + g.kd * (r.vel - x.omega),
             Law::Smc(g) => {
@@ -258,6 +340,25 @@ impl ControlLaw {
                         + m.c_sum * dq;
                 }
                 self.inertia * v
+            }
+            Law::PdFf(g) => {
+                self.rigid_inertia * r.acc + g.kp * (r.pos - x.theta) + g.kd * (r.vel - x.omega)
+            }
+            Law::SmcI(g) => {
+                let (e, de) = (x.theta - r.pos, x.omega - r.vel);
+                let m = self.integral_max;
+                let z = state.integral + e * ts_s;
+                // Comparisons, not clamp/min/max (an assertion or a library call on the M4F).
+                state.integral = if z > m {
+                    m
+                } else if z < -m {
+                    -m
+                } else {
+                    z
+                };
+                let s = de + g.w * e + g.wi * state.integral;
+                self.rigid_inertia * r.acc
+                    - self.inertia * (g.w * de + g.wi * e + g.a * g.switching.apply(g.beta * s))
             }
         }
     }
@@ -303,7 +404,7 @@ mod tests {
             omega: 2.0,
             ..Default::default()
         };
-        let u = law.torque_nm(&x, &r);
+        let u = law.torque_nm(&x, &r, &mut LawState::default(), 1e-3);
         assert!((u as f64 - m.jeff * 40.0).abs() < 1e-5 * m.jeff * 40.0);
         // Behind the reference the SMC pushes forward.
         let behind = Estimate {
@@ -311,7 +412,7 @@ mod tests {
             omega: 2.0,
             ..Default::default()
         };
-        assert!(law.torque_nm(&behind, &r) > u);
+        assert!(law.torque_nm(&behind, &r, &mut LawState::default(), 1e-3) > u);
     }
 
     #[test]
@@ -330,7 +431,12 @@ mod tests {
             strain: 1e-4,
             strain_rate: 1e-2,
         };
-        assert!((paper.torque_nm(&x, &r) - strain.torque_nm(&x, &r)).abs() < 1e-5);
+        assert!(
+            (paper.torque_nm(&x, &r, &mut LawState::default(), 1e-3)
+                - strain.torque_nm(&x, &r, &mut LawState::default(), 1e-3))
+            .abs()
+                < 1e-5
+        );
     }
 
     #[test]

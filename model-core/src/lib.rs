@@ -9,6 +9,7 @@
 //! - [`modal`]: the assumed-modes model (mode shapes, mass, stiffness and foreshortening
 //!   matrices, frequencies) of docs/design.md, section 2, in `f64` because it is computed once.
 //! - [`spline`]: the rest-to-rest reference (quintic and multi-knot C2).
+//! - [`shaper`]: ZV, ZVD and EI input shapers, and shaped moves as splines.
 //! - [`measure`]: raw counts and ADC codes to angle, velocity and strain.
 //! - [`law`]: the paper's SMC, the strain-augmented SMC and the PD baseline.
 //! - [`controller`]: the per-tick step, its state machine and fault detection.
@@ -65,6 +66,7 @@ pub mod law;
 pub mod linalg;
 pub mod measure;
 pub mod modal;
+pub mod shaper;
 pub mod spline;
 
 /// The control loop's rate, Hz: the paper's testbed and the drive's TIM2 tick.
@@ -84,7 +86,11 @@ pub use controller::{
     CommandError, ConfigError, Controller, ControllerSettings, FaultFlags, Mode, RawMeasurement,
     TorqueCommand,
 };
-pub use law::{ControlLaw, Law, LawKind, PdGains, SmcGains, StrainSmcGains, Switching};
+pub use law::{
+    ControlLaw, Law, LawKind, LawState, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains,
+    Switching,
+};
 pub use measure::{AdcSpec, EncoderSpec};
 pub use modal::{ModalModel, ModelError};
+pub use shaper::{Shaper, ShaperError, ShaperKind, Timing};
 pub use spline::{RefPoint, Spline, SplineError};

@@ -30,6 +30,31 @@ struct Segment {
     d: [f32; 6],
 }
 
+impl Segment {
+    /// The quintic Hermite segment from `(t0, p0, v0, a0)` to `(t1, p1, v1, a1)`, in
+    /// tau = (t - t0)/h with velocities and accelerations scaled to it.
+    fn hermite(
+        (t0, p0, v0, a0): (f32, f32, f32, f32),
+        (t1, p1, v1, a1): (f32, f32, f32, f32),
+    ) -> Segment {
+        let h = t1 - t0;
+        let (dp, v0, v1, a0, a1) = (p1 - p0, v0 * h, v1 * h, a0 * h * h, a1 * h * h);
+        let d = [
+            p0,
+            v0,
+            0.5 * a0,
+            10.0 * dp - 6.0 * v0 - 4.0 * v1 - 1.5 * a0 + 0.5 * a1,
+            -15.0 * dp + 8.0 * v0 + 7.0 * v1 + 1.5 * a0 - a1,
+            6.0 * dp - 3.0 * v0 - 3.0 * v1 - 0.5 * a0 + 0.5 * a1,
+        ];
+        Segment {
+            t0_s: t0,
+            h_s: h,
+            d,
+        }
+    }
+}
+
 /// A rest-to-rest C2 spline with at most `K` knots (`K - 1` segments).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spline<const K: usize> {
@@ -82,31 +107,53 @@ impl<const K: usize> Spline<K> {
         for i in 0..n - 1 {
             let (t0, p0) = knots[i];
             let (t1, p1) = knots[i + 1];
-            let h = t1 - t0;
             let (v0, a0) = vel_acc(i);
             let (v1, a1) = vel_acc(i + 1);
-            // Quintic Hermite in tau = (t - t0)/h, with velocities and accelerations scaled.
-            let (dp, v0, v1, a0, a1) = (p1 - p0, v0 * h, v1 * h, a0 * h * h, a1 * h * h);
-            let d = [
-                p0,
-                v0,
-                0.5 * a0,
-                10.0 * dp - 6.0 * v0 - 4.0 * v1 - 1.5 * a0 + 0.5 * a1,
-                -15.0 * dp + 8.0 * v0 + 7.0 * v1 + 1.5 * a0 - a1,
-                6.0 * dp - 3.0 * v0 - 3.0 * v1 - 0.5 * a0 + 0.5 * a1,
-            ];
             // Capacity K holds K knots, so K - 1 segments always fit.
-            let _ = segments.push(Segment {
-                t0_s: t0,
-                h_s: h,
-                d,
-            });
+            let _ = segments.push(Segment::hermite((t0, p0, v0, a0), (t1, p1, v1, a1)));
         }
         Ok(Self {
             segments,
             start: knots[0].1,
             end: knots[n - 1].1,
             duration_s: knots[n - 1].0,
+        })
+    }
+
+    /// A spline through `states` given as `(time_s, position, velocity, acceleration)`, each
+    /// segment the quintic matching both of its ends: for a reference that is itself
+    /// piecewise quintic between these times (a shaped quintic), it is that reference
+    /// exactly. Starts at t = 0; the first and last states should be at rest.
+    pub fn try_from_states(states: &[(f32, f32, f32, f32)]) -> Result<Self, SplineError> {
+        let n = states.len();
+        if n < 2 {
+            return Err(SplineError::TooFewKnots);
+        }
+        if n > K {
+            return Err(SplineError::TooManyKnots { capacity: K });
+        }
+        for (index, &(t, p, v, a)) in states.iter().enumerate() {
+            if !(t.is_finite() && p.is_finite() && v.is_finite() && a.is_finite()) {
+                return Err(SplineError::NonFinite { index });
+            }
+        }
+        if states[0].0 != 0.0 {
+            return Err(SplineError::FirstKnotNotAtZero);
+        }
+        for index in 1..n {
+            if !(states[index].0 > states[index - 1].0) {
+                return Err(SplineError::TimesNotIncreasing { index });
+            }
+        }
+        let mut segments = Vec::new();
+        for w in states.windows(2) {
+            let _ = segments.push(Segment::hermite(w[0], w[1]));
+        }
+        Ok(Self {
+            segments,
+            start: states[0].1,
+            end: states[n - 1].1,
+            duration_s: states[n - 1].0,
         })
     }
 

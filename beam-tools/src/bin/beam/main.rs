@@ -36,9 +36,10 @@ use beam_tools::{files as io, plot};
 use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, SimOptions, SimResult};
+use host_tests::sim::{FaultKind, Injection, Motion};
 use model_core::{
-    Beam, BeamParams, Law, LawKind, ModalModel, PdGains, Preset, SmcGains, StrainSmcGains,
-    Switching,
+    Beam, BeamParams, Law, LawKind, ModalModel, PdFfGains, PdGains, Preset, Shaper, ShaperKind,
+    SmcGains, SmcIGains, StrainSmcGains, Switching, Timing,
 };
 
 use serde_json::json;
@@ -94,7 +95,7 @@ macro_rules! named {
         }
     )*};
 }
-named!(LawKind, Switching, Preset);
+named!(LawKind, Switching, Preset, ShaperKind);
 
 /// The value parser of a [`Named`] argument: `--controller smc-strain`, `--preset aluminium`.
 fn named<T: Named>() -> impl clap::builder::TypedValueParser<Value = T>
@@ -171,8 +172,148 @@ struct SimulateArgs {
     /// smc-strain: keep the model terms with q estimated from the root strain.
     #[arg(long)]
     model_terms: bool,
+    /// smc-i: integral slope Wi, 1/s^2.
+    #[arg(long, allow_negative_numbers = true)]
+    wi: Option<f32>,
+    #[command(flatten)]
+    motion: MoveArgs,
+    #[command(flatten)]
+    load: LoadArgs,
     #[command(flatten)]
     run: RunArgs,
+}
+
+/// The move, planned by model-core: a quintic, optionally shaped.
+#[derive(Args)]
+pub(crate) struct MoveArgs {
+    /// Move to this hub angle, deg [default: the paper's slew, -90 to +90 deg].
+    #[arg(long = "move", value_name = "TO_DEG", allow_negative_numbers = true)]
+    to_deg: Option<f64>,
+    /// Start of the move, deg (where the hub rests before it).
+    #[arg(long = "from", value_name = "DEG", allow_negative_numbers = true, default_value_t = -90.0)]
+    from_deg: f64,
+    /// Duration of the (base) quintic, s.
+    #[arg(long = "time", value_name = "S", default_value_t = 0.35)]
+    time_s: f64,
+    /// Input shaper on the reference [default: the gain table's for the law, else none].
+    #[arg(long, value_parser = named::<ShaperKind>())]
+    shaper: Option<ShaperKind>,
+    /// The shaped mode's frequency, Hz (optimize: the search's start is not used; the
+    /// frequency is searched).
+    #[arg(long, value_name = "HZ")]
+    shaper_hz: Option<f32>,
+    /// The shaped mode's damping ratio.
+    #[arg(long, default_value_t = 0.0)]
+    shaper_damping: f32,
+    /// EI: the residual vibration allowed at the design frequency (fraction).
+    #[arg(long, default_value_t = 0.05)]
+    shaper_tolerance: f32,
+    /// Shorten the base quintic so the shaped move still ends at --time.
+    #[arg(long)]
+    end_on_time: bool,
+}
+
+impl MoveArgs {
+    /// The move, checked, with the shaper given or `table` (the gain table's for the law)
+    /// when none is. `hz_default` stands in for a missing --shaper-hz (optimize).
+    pub(crate) fn motion(&self, hz_default: Option<f32>, table: Shaper) -> anyhow::Result<Motion> {
+        let to = self.to_deg.unwrap_or(90.0);
+        for (flag, v) in [("--move", to), ("--from", self.from_deg)] {
+            if !(v.is_finite() && v.abs() <= 3600.0) {
+                bail!("{flag} {v} must be an angle within +-3600 deg");
+            }
+        }
+        if !(self.time_s.is_finite() && self.time_s > 0.0 && self.time_s <= 60.0) {
+            bail!(
+                "--time {} must be a number of seconds in (0, 60]",
+                self.time_s
+            );
+        }
+        let shaper = match (self.shaper, self.shaper_hz.or(hz_default)) {
+            (None, None) => table,
+            (None, Some(_)) if self.shaper_hz.is_some() => bail!("--shaper-hz needs a --shaper"),
+            (None, Some(_)) => table,
+            (Some(kind), hz) => match (kind, hz) {
+                (ShaperKind::None, None) => Shaper::NONE,
+                (ShaperKind::None, Some(_)) if self.shaper_hz.is_some() => {
+                    bail!("--shaper-hz needs a --shaper")
+                }
+                (ShaperKind::None, Some(_)) => Shaper::NONE,
+                (kind, None) => bail!("--shaper {kind} needs --shaper-hz"),
+                (kind, Some(freq_hz)) => Shaper {
+                    kind,
+                    freq_hz,
+                    damping: self.shaper_damping,
+                    tolerance: self.shaper_tolerance,
+                },
+            },
+        };
+        let timing = if self.end_on_time {
+            Timing::EndOnTime
+        } else {
+            Timing::Stretch
+        };
+        // The paper's slew exactly as its constants say (not through degrees).
+        let motion = if self.to_deg.is_none() && self.from_deg == -90.0 && self.time_s == 0.35 {
+            Motion {
+                shaper,
+                timing,
+                ..Motion::default()
+            }
+        } else {
+            Motion {
+                from_rad: self.from_deg.to_radians() as f32,
+                to_rad: to.to_radians() as f32,
+                time_s: self.time_s as f32,
+                shaper,
+                timing,
+            }
+        };
+        motion.plan()?;
+        Ok(motion)
+    }
+}
+
+/// A step load on the hub (to test how the drive holds).
+#[derive(Args)]
+struct LoadArgs {
+    /// Load torque on the hub, N m.
+    #[arg(
+        long,
+        value_name = "NM",
+        allow_negative_numbers = true,
+        requires = "load_at"
+    )]
+    load_nm: Option<f64>,
+    /// When the load is applied, s after the move starts.
+    #[arg(long, value_name = "S", requires = "load_nm")]
+    load_at: Option<f64>,
+    /// When it is removed, s [default: never, within the run].
+    #[arg(long, value_name = "S", requires = "load_nm")]
+    load_until: Option<f64>,
+}
+
+impl LoadArgs {
+    /// The load as an injection, checked.
+    fn injection(&self) -> anyhow::Result<Option<Injection>> {
+        let (Some(nm), Some(at_s)) = (self.load_nm, self.load_at) else {
+            return Ok(None);
+        };
+        let until = self.load_until.unwrap_or(f64::INFINITY);
+        if !(nm.is_finite() && nm.abs() <= 100.0) {
+            bail!("--load-nm {nm} must be within +-100 N m");
+        }
+        if !(at_s.is_finite() && at_s >= 0.0 && until > at_s) {
+            bail!("--load-at {at_s} must be >= 0 and before --load-until");
+        }
+        Ok(Some(Injection {
+            kind: FaultKind::LoadTorque {
+                nm,
+                for_s: until - at_s,
+            },
+            at_s,
+        }))
+    }
 }
 
 /// What `simulate` and `pil` share: how long, which noise, what to write.
@@ -355,9 +496,10 @@ fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
     };
     // Which flags each law takes; the compiler asks for a row when a law is added.
     let takes: &[&str] = match a.controller {
-        LawKind::Pd => &["kp", "kd"],
+        LawKind::Pd | LawKind::PdFf => &["kp", "kd"],
         LawKind::Smc => &["w", "a", "beta", "switching"],
         LawKind::SmcStrain => &["w", "a", "beta", "switching", "c", "model-terms"],
+        LawKind::SmcI => &["w", "wi", "a", "beta", "switching"],
     };
     for (flag, set) in [
         ("kp", a.kp.is_some()),
@@ -366,6 +508,7 @@ fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
         ("a", a.a.is_some()),
         ("beta", a.beta.is_some()),
         ("c", a.c.is_some()),
+        ("wi", a.wi.is_some()),
         ("switching", a.switching.is_some()),
         ("model-terms", a.model_terms),
     ] {
@@ -392,6 +535,17 @@ fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
             c: a.c.unwrap_or(g.c),
             model_terms: a.model_terms || g.model_terms,
         }),
+        Law::PdFf(g) => Law::PdFf(PdFfGains {
+            kp: a.kp.unwrap_or(g.kp),
+            kd: a.kd.unwrap_or(g.kd),
+        }),
+        Law::SmcI(g) => Law::SmcI(SmcIGains {
+            w: a.w.unwrap_or(g.w),
+            wi: a.wi.unwrap_or(g.wi),
+            a: a.a.unwrap_or(g.a),
+            beta: a.beta.unwrap_or(g.beta),
+            switching: a.switching.unwrap_or(g.switching),
+        }),
     })
 }
 
@@ -409,7 +563,18 @@ fn default_law(kind: LawKind, payload_kg: Option<f64>) -> Law {
 fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
     let beam = beam(&a.plant)?;
     let law = law(a)?;
-    let opts = a.run.options()?;
+    let opts = SimOptions {
+        motion: a.motion.motion(
+            None,
+            model_core::gains::schedule_shaper(
+                model_core::gains::GAIN_TABLE,
+                a.controller,
+                a.plant.tip_mass.unwrap_or(0.0) as f32,
+            ),
+        )?,
+        fault: a.load.injection()?,
+        ..a.run.options()?
+    };
     let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;
     let preset = a.plant.preset.name();
     let title = format!(
@@ -452,6 +617,10 @@ fn gains_json(law: &Law) -> serde_json::Value {
         }) => json!({
             "w": f(g.w), "a": f(g.a), "beta": f(g.beta), "c": f(*c), "switching": g.switching.name(),
             "model_terms": model_terms,
+        }),
+        Law::PdFf(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
+        Law::SmcI(g) => json!({
+            "w": f(g.w), "wi": f(g.wi), "a": f(g.a), "beta": f(g.beta), "switching": g.switching.name(),
         }),
     }
 }

@@ -3,11 +3,16 @@
 
 use crate::{beam, named, PlantArgs};
 use anyhow::{anyhow, bail, Context};
-use beam_tools::optimize::{default_params, full_metrics, optimize, Outcome, Spec};
+use beam_tools::optimize::{
+    default_params, full_metrics, optimize, LoadHold, Outcome, Param, Scenario, Spec,
+    SHAPER_DAMPING, SHAPER_HZ,
+};
 use clap::{Args, ValueEnum};
 use gain_table::Gains;
 use host_tests::metrics::{CostSpec, Metrics};
-use model_core::{Beam, Law, LawKind, ModalModel, PdGains, StrainSmcGains, Switching};
+use model_core::{
+    Beam, Law, LawKind, ModalModel, PdGains, Shaper, ShaperKind, StrainSmcGains, Switching,
+};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -32,6 +37,8 @@ pub enum StrainUnit {
 pub struct OptimizeArgs {
     #[command(flatten)]
     plant: PlantArgs,
+    #[command(flatten)]
+    motion: crate::MoveArgs,
     /// Controller to design.
     #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
     controller: LawKind,
@@ -66,6 +73,31 @@ pub struct OptimizeArgs {
     /// ends at 0.6 s; this keeps the hub from creeping afterwards.
     #[arg(long, value_parser = parse_hold, default_value = "1.0,0.5")]
     hold: (f64, f64),
+    /// Constraint: a load of NM N m applied at rest 1.0-1.5 s moves the hub at most 1 deg and
+    /// the hub is back within 0.1 deg 0.3 s after its removal (0 disables).
+    #[arg(long, value_name = "NM", default_value_t = 0.0)]
+    load_hold: f64,
+    /// Robust design: minimise the --quantile of J over this many scenarios (plants with
+    /// parameter errors, friction and payload, and moves of --moves), the same scenarios for
+    /// every candidate (0: the nominal plant only).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    robust: usize,
+    /// Robust design: the quantile of J minimised.
+    #[arg(long, default_value_t = 0.95)]
+    quantile: f64,
+    /// Robust design: EI, density, Jm and modal damping each within +-SPREAD.
+    #[arg(long, default_value_t = 0.2)]
+    spread: f64,
+    /// Robust design: Coulomb friction drawn from 0 to this, N m.
+    #[arg(long, default_value_t = 0.05)]
+    coulomb_max: f64,
+    /// Robust design: payload within +-this of --payload, kg.
+    #[arg(long, default_value_t = 0.005)]
+    payload_spread: f64,
+    /// Robust design: move amplitudes, deg, each at its planned time (the paper's peak
+    /// reference acceleration: 0.35 s * sqrt(amplitude / 180 deg)).
+    #[arg(long, value_delimiter = ',', default_value = "15,45,90,180")]
+    moves: Vec<f64>,
     /// Constraint: peak torque below this fraction of the drive limit.
     #[arg(long, default_value_t = 0.99)]
     torque_fraction: f64,
@@ -120,6 +152,7 @@ pub fn run(a: &OptimizeArgs) -> anyhow::Result<()> {
         ("--w1", a.w1, a.w1 >= 0.0),
         ("--w2", a.w2, a.w2 >= 0.0),
         ("--max-err-deg", a.max_err_deg, a.max_err_deg >= 0.0),
+        ("--load-hold", a.load_hold, a.load_hold.abs() <= 10.0),
         (
             "--torque-fraction",
             a.torque_fraction,
@@ -143,6 +176,31 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         bail!("--model-terms applies to --controller smc-strain only");
     }
     let mut params = default_params(kind, &model);
+    // With a shaper, its frequency is designed with the gains: between the beam's first
+    // clamped and twice its first pinned frequency, where the closed-loop mode lies.
+    let mut motion = a
+        .motion
+        .motion(Some(model.clamped_hz[0] as f32), Shaper::NONE)?;
+    if a.robust > 0 {
+        // The scenarios' moves are stretched by the shaper (a short move cannot absorb its
+        // length); the reported nominal run is too.
+        motion.timing = model_core::Timing::Stretch;
+    }
+    if motion.shaper.kind != ShaperKind::None {
+        params.push(Param {
+            name: SHAPER_HZ,
+            lo: 0.5 * model.clamped_hz[0],
+            hi: 2.0 * model.pinned_hz[0],
+            log: true,
+        });
+        // The closed-loop mode is damped by the loop: its damping is designed too.
+        params.push(Param {
+            name: SHAPER_DAMPING,
+            lo: 0.0,
+            hi: 0.4,
+            log: false,
+        });
+    }
     for b in &a.bounds {
         let err = || anyhow!("--bound {b}: expected NAME=LO:HI with LO < HI");
         let (name, range) = b.split_once('=').ok_or_else(err)?;
@@ -163,10 +221,14 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         }
         (p.lo, p.hi) = (lo, hi);
     }
+    let scenarios = scenarios(a, beam, &motion)?;
     let spec = Spec {
         kind,
         params,
         switching: a.switching,
+        motion,
+        scenarios,
+        quantile: a.quantile,
         model_terms: a.model_terms,
         cost: CostSpec {
             w1: a.w1,
@@ -184,6 +246,10 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         },
         max_err_deg_0_6: (a.max_err_deg > 0.0).then_some(a.max_err_deg),
         hold: (a.hold.0 > 0.0 && a.hold.1 > 0.0).then_some(a.hold),
+        load_hold: (a.load_hold != 0.0).then_some(LoadHold {
+            nm: a.load_hold,
+            ..LoadHold::DEFAULT
+        }),
         torque_fraction: a.torque_fraction,
         samples: a.samples,
         starts: a.starts,
@@ -212,12 +278,88 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
     let outcome = optimize(&model, &spec, &|done, _| bar.set_position(done as u64));
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    let winner = full_metrics(&model, outcome.best.law, a.seed)?;
-    let baseline = full_metrics(&model, Law::Pd(PdGains::BASELINE), a.seed)?;
+    let motion = beam_tools::optimize::motion_for(&spec, &outcome.best.gains);
+    let winner = full_metrics(&model, outcome.best.law, a.seed, motion, spec.load_hold)?;
+    let baseline = full_metrics(
+        &model,
+        Law::Pd(PdGains::BASELINE),
+        a.seed,
+        host_tests::sim::Motion::default(),
+        spec.load_hold,
+    )?;
     if let Some(path) = &a.table {
-        write_row(path, &outcome, a, N)?;
+        write_row(path, &outcome, &spec, a, N)?;
     }
     report(&outcome, &spec, &winner, &baseline, a, seconds)
+}
+
+/// The planned time of a move of `deg`: the paper's slew's peak reference acceleration.
+pub fn planned_time_s(deg: f64) -> f64 {
+    0.35 * (deg.abs() / 180.0).sqrt()
+}
+
+/// The robust design's scenario set, drawn with the seed (empty without --robust).
+fn scenarios(
+    a: &OptimizeArgs,
+    nominal: &Beam,
+    motion: &host_tests::sim::Motion,
+) -> anyhow::Result<Vec<Scenario>> {
+    if a.robust == 0 {
+        return Ok(vec![]);
+    }
+    if a.robust > 10_000 {
+        bail!("--robust {} must be at most 10000 scenarios", a.robust);
+    }
+    if !(a.quantile.is_finite() && (0.0..=1.0).contains(&a.quantile)) {
+        bail!("--quantile {} must be in [0, 1]", a.quantile);
+    }
+    if !(a.spread.is_finite() && (0.0..0.9).contains(&a.spread)) {
+        bail!("--spread {} must be in [0, 0.9)", a.spread);
+    }
+    for (flag, v) in [
+        ("--coulomb-max", a.coulomb_max),
+        ("--payload-spread", a.payload_spread),
+    ] {
+        if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
+            bail!("{flag} {v} must be in [0, 1]");
+        }
+    }
+    if a.moves.is_empty()
+        || a.moves
+            .iter()
+            .any(|m| !(m.is_finite() && *m > 0.0 && *m <= 720.0))
+    {
+        bail!("--moves must be amplitudes in (0, 720] deg");
+    }
+    let p = *nominal.params();
+    let sweep = beam_tools::sweep::SweepSpec {
+        cases: a.robust,
+        spread: a.spread,
+        payload_max_kg: 0.0,
+        seed: a.seed,
+    };
+    let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
+    use rand::Rng;
+    (0..a.robust)
+        .map(|i| {
+            let d = beam_tools::sweep::Perturbation::draw(&sweep, i);
+            let mut plant = d.apply(&p);
+            plant.coulomb_nm = a.coulomb_max * rng.gen::<f64>();
+            plant.tip_mass_kg =
+                (p.tip_mass_kg + a.payload_spread * (2.0 * rng.gen::<f64>() - 1.0)).max(0.0);
+            let deg = a.moves[i % a.moves.len()];
+            let half = (deg / 2.0).to_radians() as f32;
+            let m = host_tests::sim::Motion {
+                from_rad: -half,
+                to_rad: half,
+                time_s: planned_time_s(deg) as f32,
+                // Short moves cannot absorb the shaper's length: every scenario is stretched.
+                timing: model_core::Timing::Stretch,
+                ..*motion
+            };
+            Ok(Scenario { plant, motion: m })
+        })
+        .collect()
 }
 
 /// The gains of the table row of this controller with the nearest payload, if any, in the
@@ -248,6 +390,7 @@ fn neighbour_gains(path: &std::path::Path, a: &OptimizeArgs, spec: &Spec) -> Opt
 fn write_row(
     path: &std::path::Path,
     o: &Outcome,
+    spec: &Spec,
     a: &OptimizeArgs,
     modes: usize,
 ) -> anyhow::Result<()> {
@@ -287,13 +430,31 @@ fn write_row(
             switching: g.switching,
             model_terms,
         }),
+        Law::PdFf(g) => Gains::PdFf(gain_table::PdRow {
+            kp: f(g.kp),
+            kd: f(g.kd),
+        }),
+        Law::SmcI(g) => Gains::SmcI(gain_table::SmcIRow {
+            w: f(g.w),
+            wi: f(g.wi),
+            a: f(g.a),
+            beta: f(g.beta),
+            switching: g.switching,
+        }),
     };
+    let shaper = beam_tools::optimize::motion_for(spec, &o.best.gains).shaper;
     let row = gain_table::Row {
         payload_kg: a.plant.tip_mass.unwrap_or(0.0),
         gains,
         preset: a.plant.preset,
         modes: modes as u32,
         cost_j: o.best.cost,
+        shaper: gain_table::ShaperRow {
+            kind: shaper.kind,
+            hz: f(shaper.freq_hz),
+            damping: f(shaper.damping),
+            tolerance: f(shaper.tolerance),
+        },
     };
     gain_table::upsert(&mut rows, row);
     let text = gain_table::render(&rows);
