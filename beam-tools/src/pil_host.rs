@@ -14,7 +14,7 @@ use beam_wire::{
     decode, encode, CommandFrame, DriveError, DriveMessage, FrameError, FrameReader, HostMessage,
     SensorFrame, MAX_FRAME,
 };
-use firmware::config::{build_controller_for, sequence};
+use firmware::config::{build_controller_for, sequence_for};
 use host_tests::plant::Plant;
 use host_tests::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
 use model_core::LawKind;
@@ -494,7 +494,7 @@ pub fn run_pil<const N: usize>(
         reason,
     };
     let mut host = build_controller_for(cfg.controller, cfg.payload_kg).map_err(config)?;
-    let reference = sequence().map_err(config)?[0].clone();
+    let reference = sequence_for(cfg.controller, cfg.payload_kg).map_err(config)?[0].clone();
     let elf = std::fs::read(&cfg.elf).map_err(|source| PilError::ReadFirmware {
         path: cfg.elf.clone(),
         source,

@@ -6,13 +6,13 @@
 
 use host_tests::metrics::{metrics, Metrics};
 use host_tests::sensors::SensorConfig;
-use host_tests::sim::{simulate_mismatched, SimError, SimOptions};
-use model_core::{Beam, BeamParams, Law, ModalModel};
+use host_tests::sim::{simulate_mismatched, Motion, SimError, SimOptions};
+use model_core::{Beam, BeamParams, Law, ModalModel, Shaper, Timing};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
 
 /// How the cases are drawn.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SweepSpec {
     /// Number of cases.
     pub cases: usize,
@@ -22,6 +22,18 @@ pub struct SweepSpec {
     pub payload_max_kg: f64,
     /// Seed.
     pub seed: u64,
+    /// Coulomb friction drawn uniformly from 0 to this, N m (0: the nominal's, scaled like
+    /// the viscous friction).
+    pub coulomb_max_nm: f64,
+    /// Move amplitudes, deg, taken in turn by the cases, each at its planned time (empty:
+    /// the paper's slew for every case).
+    pub moves_deg: Vec<f64>,
+}
+
+/// The planned time of a move of `deg`: the one with the paper's slew's peak reference
+/// acceleration, 0.35 s * sqrt(deg / 180).
+pub fn planned_time_s(deg: f64) -> f64 {
+    0.35 * (deg.abs() / 180.0).sqrt()
 }
 
 /// The multipliers and payload of one case.
@@ -39,6 +51,10 @@ pub struct Perturbation {
     pub damping: f64,
     /// Payload, kg.
     pub payload_kg: f64,
+    /// Coulomb friction, N m, when drawn (`coulomb_max_nm` > 0).
+    pub coulomb_nm: Option<f64>,
+    /// The move's amplitude, deg (`None`: the paper's slew).
+    pub move_deg: Option<f64>,
 }
 
 impl Perturbation {
@@ -51,13 +67,40 @@ impl Perturbation {
         );
         let mut f = || 1.0 + spec.spread * (2.0 * rng.gen::<f64>() - 1.0);
         let (ei, rho, jm, friction, damping) = (f(), f(), f(), f(), f());
+        let payload_kg = spec.payload_max_kg * rng.gen::<f64>();
+        // Drawn after the others, so a spec without them draws the same cases as before.
+        let coulomb_nm =
+            (spec.coulomb_max_nm > 0.0).then(|| spec.coulomb_max_nm * rng.gen::<f64>());
         Self {
             ei,
             rho,
             jm,
             friction,
             damping,
-            payload_kg: spec.payload_max_kg * rng.gen::<f64>(),
+            payload_kg,
+            coulomb_nm,
+            move_deg: (!spec.moves_deg.is_empty())
+                .then(|| spec.moves_deg[index % spec.moves_deg.len()]),
+        }
+    }
+
+    /// The case's move with `shaper` (stretched by it: a short move cannot absorb its length).
+    pub fn motion(&self, shaper: Shaper) -> Motion {
+        match self.move_deg {
+            None => Motion {
+                shaper,
+                ..Motion::default()
+            },
+            Some(deg) => {
+                let half = (deg / 2.0).to_radians() as f32;
+                Motion {
+                    from_rad: -half,
+                    to_rad: half,
+                    time_s: planned_time_s(deg) as f32,
+                    shaper,
+                    timing: Timing::Stretch,
+                }
+            }
         }
     }
 
@@ -68,7 +111,9 @@ impl Perturbation {
             density_kg_m3: nominal.density_kg_m3 * self.rho,
             jm_kgm2: nominal.jm_kgm2 * self.jm,
             viscous_nms: nominal.viscous_nms * self.friction,
-            coulomb_nm: nominal.coulomb_nm * self.friction,
+            coulomb_nm: self
+                .coulomb_nm
+                .unwrap_or(nominal.coulomb_nm * self.friction),
             damping_ratio: (nominal.damping_ratio * self.damping).min(0.99),
             tip_mass_kg: self.payload_kg,
             ..*nominal
@@ -85,15 +130,21 @@ pub struct Case {
     pub controller: Metrics,
     /// The PD baseline's metrics.
     pub baseline: Metrics,
+    /// The peer's metrics (feedforward + PD with its shaper), when one is given.
+    pub peer: Option<Metrics>,
 }
+
+/// A law with its shaper, as scheduled for a payload.
+pub type Tuned = (Law, Shaper);
 
 /// Runs the sweep. `law_for_payload` gives the controller's gains at a payload (the gain
 /// table's schedule); `baseline` is the comparison law.
 pub fn sweep<const N: usize>(
     nominal: &BeamParams,
     spec: &SweepSpec,
-    law_for_payload: &(dyn Fn(f64) -> Law + Sync),
+    law_for_payload: &(dyn Fn(f64) -> Tuned + Sync),
     baseline: Law,
+    peer: Option<&(dyn Fn(f64) -> Tuned + Sync)>,
 ) -> Result<Vec<Case>, SimError> {
     (0..spec.cases)
         .into_par_iter()
@@ -107,18 +158,22 @@ pub fn sweep<const N: usize>(
                 tip_mass_kg: p.payload_kg,
                 ..*nominal
             })?;
-            let opts = SimOptions {
-                sensors: SensorConfig {
-                    seed: spec.seed ^ i as u64,
+            let run = |(law, shaper): Tuned| {
+                let opts = SimOptions {
+                    sensors: SensorConfig {
+                        seed: spec.seed ^ i as u64,
+                        ..Default::default()
+                    },
+                    motion: p.motion(shaper),
                     ..Default::default()
-                },
-                ..Default::default()
+                };
+                simulate_mismatched(&plant, &drive, law, &opts).map(|r| metrics(&r))
             };
-            let run = |law| simulate_mismatched(&plant, &drive, law, &opts).map(|r| metrics(&r));
             Ok(Case {
                 perturbation: p,
                 controller: run(law_for_payload(p.payload_kg))?,
-                baseline: run(baseline)?,
+                baseline: run((baseline, Shaper::NONE))?,
+                peer: peer.map(|f| run(f(p.payload_kg))).transpose()?,
             })
         })
         .collect()
@@ -157,6 +212,13 @@ mod tests {
             spread: 0.2,
             payload_max_kg: 0.05,
             seed: 3,
+            coulomb_max_nm: 0.0,
+            moves_deg: vec![],
+        };
+        let with_more = SweepSpec {
+            coulomb_max_nm: 0.05,
+            moves_deg: vec![15.0, 180.0],
+            ..spec.clone()
         };
         for i in 0..200 {
             let p = Perturbation::draw(&spec, i);
@@ -165,6 +227,15 @@ mod tests {
                 assert!((0.8..=1.2).contains(&m));
             }
             assert!((0.0..=0.05).contains(&p.payload_kg));
+            assert_eq!((p.coulomb_nm, p.move_deg), (None, None));
+            // Friction and moves are drawn after the rest: the other draws are unchanged.
+            let q = Perturbation::draw(&with_more, i);
+            assert_eq!((q.ei, q.payload_kg), (p.ei, p.payload_kg));
+            assert!((0.0..=0.05).contains(&q.coulomb_nm.unwrap()));
+            assert_eq!(q.move_deg, Some([15.0, 180.0][i % 2]));
         }
+        // The planned time keeps the paper's peak acceleration: 180 deg in 0.35 s.
+        assert!((planned_time_s(180.0) - 0.35).abs() < 1e-12);
+        assert!((planned_time_s(45.0) - 0.175).abs() < 1e-12);
     }
 }

@@ -90,7 +90,15 @@ fn shipped_smc_gains_cut_residual_strain_tenfold_with_the_hub_on_target() {
 fn every_shipped_row_settles_its_payload_without_breakdown() {
     for row in GAIN_TABLE {
         let m = model(row.payload_kg as f64);
-        let r = metrics(&simulate(&m, row.law, &SimOptions::default()).unwrap());
+        // Each row runs with the shaper it was designed with (none for smc and smc-strain).
+        let opts = SimOptions {
+            motion: host_tests::sim::Motion {
+                shaper: row.shaper,
+                ..Default::default()
+            },
+            ..SimOptions::default()
+        };
+        let r = metrics(&simulate(&m, row.law, &opts).unwrap());
         assert!(
             r.breakdown_at_s.is_none(),
             "{} at {} kg",

@@ -157,6 +157,33 @@ fn the_firmware_closes_the_loop_exactly_as_the_host_build_does() {
 }
 
 #[test]
+fn a_shaped_move_runs_on_the_drive_exactly_as_on_the_host() {
+    if !qemu_present() {
+        return;
+    }
+    // pd-ff's table rows carry a ZVD shaper: the drive plans the shaped move itself (a
+    // six-knot spline) and must still match the host build bit for bit.
+    let shaper =
+        model_core::gains::schedule_shaper(model_core::gains::GAIN_TABLE, LawKind::PdFf, 0.0);
+    assert_ne!(
+        shaper.kind,
+        model_core::ShaperKind::None,
+        "the table's pd-ff rows are shaped"
+    );
+    let opts = SimOptions::default();
+    let pil = run_pil(Plant::new(model()), &config(LawKind::PdFf, false), &opts).unwrap();
+    let controller = build_controller_for(LawKind::PdFf, 0.0).unwrap();
+    assert!(
+        controller.spline().duration_s() > 0.35,
+        "the move is stretched by the shaper"
+    );
+    let host = run(Plant::new(model()), controller, &opts).unwrap();
+    assert!(pil.identical, "{} ulps", pil.max_ulps);
+    assert_eq!(pil.run.samples, host.samples);
+    assert!(pil.run.faults.is_empty() && pil.run.breakdown.is_none());
+}
+
+#[test]
 fn the_drive_names_an_out_of_order_or_corrupt_frame_and_stops() {
     if !qemu_present() {
         return;

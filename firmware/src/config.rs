@@ -4,14 +4,15 @@
 //! the drive never enables the amplifier. The gains come from the table compiled from
 //! `gains.toml` (model-core's `GAIN_TABLE`), scheduled on the payload.
 
-use model_core::gains::{schedule, GAIN_TABLE};
+use model_core::gains::{schedule, schedule_shaper, GAIN_TABLE};
+use model_core::shaper::shaped_quintic;
 use model_core::{
     Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind,
-    ModalModel, ModelError, ParamError, PdGains, Spline, SplineError,
+    ModalModel, ModelError, ParamError, PdGains, ShaperError, Spline, Timing,
 };
 
 /// Knots per move: the paper's moves are single quintic segments.
-pub const MOVE_KNOTS: usize = 2;
+pub const MOVE_KNOTS: usize = 2 * model_core::shaper::MAX_IMPULSES;
 /// The payload this drive carries, kg.
 pub const PAYLOAD_KG: f32 = 0.0;
 /// The control law the drive runs.
@@ -62,8 +63,8 @@ pub enum BuildError {
     Gains(ParamError),
     /// The controller settings.
     Config(ConfigError),
-    /// A move.
-    Move(SplineError),
+    /// A move (shaped or not).
+    Shape(ShaperError),
 }
 
 /// The drive's controller ([`CONTROLLER`] at [`PAYLOAD_KG`]), idle, armed with the first move.
@@ -89,7 +90,7 @@ pub fn build_controller_for(
         torque_limit_nm: params.torque_limit_nm as f32,
         ..ControllerSettings::default()
     };
-    let [first, _] = sequence()?;
+    let [first, _] = sequence_for(kind, payload_kg)?;
     Controller::try_build(settings, law, first).map_err(BuildError::Config)
 }
 
@@ -106,10 +107,20 @@ pub fn nearest<const K: usize>(moves: &[Spline<K>], theta_rad: f32) -> Option<&S
 
 /// The move sequence the start button steps through: out to +90 deg, back to -90 deg.
 pub fn sequence() -> Result<[Spline<MOVE_KNOTS>; 2], BuildError> {
-    let out = Spline::quintic(SLEW_FROM_RAD, SLEW_TO_RAD, SLEW_TIME_S).map_err(BuildError::Move)?;
-    let back =
-        Spline::quintic(SLEW_TO_RAD, SLEW_FROM_RAD, SLEW_TIME_S).map_err(BuildError::Move)?;
-    Ok([out, back])
+    sequence_for(CONTROLLER, PAYLOAD_KG)
+}
+
+/// The move sequence for law `kind` at `payload_kg`: the paper's slew out and back, shaped by
+/// the law's table shaper (if any), which lengthens each move by the shaper's duration.
+pub fn sequence_for(kind: LawKind, payload_kg: f32) -> Result<[Spline<MOVE_KNOTS>; 2], BuildError> {
+    let shaper = schedule_shaper(GAIN_TABLE, kind, payload_kg);
+    let plan = |from, to| {
+        shaped_quintic(from, to, SLEW_TIME_S, &shaper, Timing::Stretch).map_err(BuildError::Shape)
+    };
+    Ok([
+        plan(SLEW_FROM_RAD, SLEW_TO_RAD)?,
+        plan(SLEW_TO_RAD, SLEW_FROM_RAD)?,
+    ])
 }
 
 #[cfg(test)]

@@ -144,7 +144,9 @@ pub fn metrics(run: &SimResult) -> Metrics {
                 .rposition(|x| x.t >= until - 1e-9 && dev(x) > HOLD_BAND_DEG);
             let recover = match last_out {
                 None => Some(0.0),
-                Some(k) if k + 1 < s.len() => Some(s[k + 1].t - until),
+                // Rounded to the microsecond: tick times are decimals, their difference
+                // is not (1.566 - 1.5 = 0.06600000000000006).
+                Some(k) if k + 1 < s.len() => Some(((s[k + 1].t - until) * 1e6).round() / 1e6),
                 Some(_) => None,
             };
             (max_dev, Some(recover.filter(|_| end >= until)))

@@ -22,7 +22,7 @@ mod pil {
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use firmware::ads1220::Ads1220;
     use firmware::amplifier::{Amplifier, TorqueScale};
-    use firmware::config::{build_controller_for, nearest, sequence, SLEW_FROM_RAD};
+    use firmware::config::{build_controller_for, nearest, sequence_for, SLEW_FROM_RAD};
     use firmware::drive::{Command, Drive};
     use firmware::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm};
     use semihosting::io::{Read, Write};
@@ -81,7 +81,7 @@ mod pil {
             _ => return Err(DriveError::Unexpected),
         };
         let controller = build_controller_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
-        let moves = sequence().map_err(|_| DriveError::Config)?;
+        let moves = sequence_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
         // The sensor frame is copied into the bench before each tick; the ADS1220 and
         // amplifier drivers run on the bench's fake bus and pins, a new conversion every
         // tick, as the host's sensor model gives one. The amplifier's outputs go nowhere:

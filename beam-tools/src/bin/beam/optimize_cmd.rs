@@ -104,6 +104,10 @@ pub struct OptimizeArgs {
     /// Override a bound: NAME=LO:HI (repeatable; names kp, kd, w, a, beta, c).
     #[arg(long = "bound", value_name = "NAME=LO:HI")]
     bounds: Vec<String>,
+    /// Start one local search here: NAME=VALUE,... for every searched parameter (for instance
+    /// a design of another law mapped into this one's gains).
+    #[arg(long, value_name = "NAME=V,...")]
+    start: Option<String>,
     /// Latin-hypercube samples of the global stage.
     #[arg(long, default_value_t = 256)]
     samples: usize,
@@ -258,10 +262,13 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         warm_start: None,
     };
     let mut spec = spec;
-    spec.warm_start = a
-        .table
-        .as_deref()
-        .and_then(|t| neighbour_gains(t, a, &spec));
+    spec.warm_start = match &a.start {
+        Some(text) => Some(parse_start(text, &spec)?),
+        None => a
+            .table
+            .as_deref()
+            .and_then(|t| neighbour_gains(t, a, &spec)),
+    };
     let bar = if a.json {
         indicatif::ProgressBar::hidden()
     } else {
@@ -291,11 +298,6 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         write_row(path, &outcome, &spec, a, N)?;
     }
     report(&outcome, &spec, &winner, &baseline, a, seconds)
-}
-
-/// The planned time of a move of `deg`: the paper's slew's peak reference acceleration.
-pub fn planned_time_s(deg: f64) -> f64 {
-    0.35 * (deg.abs() / 180.0).sqrt()
 }
 
 /// The robust design's scenario set, drawn with the seed (empty without --robust).
@@ -337,6 +339,8 @@ fn scenarios(
         spread: a.spread,
         payload_max_kg: 0.0,
         seed: a.seed,
+        coulomb_max_nm: 0.0,
+        moves_deg: vec![],
     };
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
     use rand::Rng;
@@ -352,7 +356,7 @@ fn scenarios(
             let m = host_tests::sim::Motion {
                 from_rad: -half,
                 to_rad: half,
-                time_s: planned_time_s(deg) as f32,
+                time_s: beam_tools::sweep::planned_time_s(deg) as f32,
                 // Short moves cannot absorb the shaper's length: every scenario is stretched.
                 timing: model_core::Timing::Stretch,
                 ..*motion
@@ -360,6 +364,35 @@ fn scenarios(
             Ok(Scenario { plant, motion: m })
         })
         .collect()
+}
+
+/// `--start NAME=V,...`: a value for every searched parameter, in `spec.params` order.
+fn parse_start(text: &str, spec: &Spec) -> anyhow::Result<Vec<f64>> {
+    let mut given = std::collections::HashMap::new();
+    for item in text.split(',') {
+        let (name, v) = item
+            .split_once('=')
+            .with_context(|| format!("--start {item}: expected NAME=VALUE"))?;
+        let v: f64 = v
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .with_context(|| format!("--start {item}: not a finite number"))?;
+        given.insert(name.trim().to_string(), v);
+    }
+    spec.params
+        .iter()
+        .map(|p| {
+            given
+                .remove(p.name)
+                .with_context(|| format!("--start gives no `{}`", p.name))
+        })
+        .collect::<anyhow::Result<Vec<f64>>>()
+        .and_then(|v| match given.keys().next() {
+            Some(extra) => bail!("--start: `{extra}` is not searched for {}", spec.kind),
+            None => Ok(v),
+        })
 }
 
 /// The gains of the table row of this controller with the nearest payload, if any, in the

@@ -32,6 +32,16 @@ pub struct SweepArgs {
     /// Seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Coulomb friction drawn from 0 to this, N m (0: the preset's, scaled with the viscous).
+    #[arg(long, default_value_t = 0.0)]
+    coulomb_max: f64,
+    /// Move amplitudes, deg, taken in turn by the cases at their planned times (0.35 s *
+    /// sqrt(deg / 180)), shaped by each law's table shaper [default: the paper's slew].
+    #[arg(long, value_delimiter = ',')]
+    moves: Vec<f64>,
+    /// Do not run the pd-ff peer (feedforward + PD with its table shaper) on each case.
+    #[arg(long)]
+    no_peer: bool,
     /// Write one row per case.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -75,19 +85,43 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.plot {
         beam_tools::plot::check_extension(path)?;
     }
+    if !(a.coulomb_max.is_finite() && (0.0..=1.0).contains(&a.coulomb_max)) {
+        bail!("--coulomb-max {} must be in [0, 1] N m", a.coulomb_max);
+    }
+    if a.moves
+        .iter()
+        .any(|m| !(m.is_finite() && *m > 0.0 && *m <= 720.0))
+    {
+        bail!("--moves must be amplitudes in (0, 720] deg");
+    }
     let nominal = *beam(&a.plant)?.params();
     let kind = a.controller.name();
-    let law_at = move |payload: f64| default_law(a.controller, Some(payload));
+    let tuned = |k: LawKind| {
+        move |payload: f64| {
+            let shaper = model_core::gains::schedule_shaper(
+                model_core::gains::GAIN_TABLE,
+                k,
+                payload as f32,
+            );
+            (default_law(k, Some(payload)), shaper)
+        }
+    };
+    let law_at = tuned(a.controller);
+    let peer_at = tuned(LawKind::PdFf);
+    let peer: Option<&(dyn Fn(f64) -> beam_tools::sweep::Tuned + Sync)> =
+        (!a.no_peer && a.controller != LawKind::PdFf).then_some(&peer_at);
     let spec = SweepSpec {
         cases: a.cases,
         spread: a.spread,
         payload_max_kg: a.payload_max,
         seed: a.seed,
+        coulomb_max_nm: a.coulomb_max,
+        moves_deg: a.moves.clone(),
     };
     let started = Instant::now();
     let cases = with_modes!(
         a.plant.modes,
-        sweep(&nominal, &spec, &law_at, Law::Pd(PdGains::BASELINE))
+        sweep(&nominal, &spec, &law_at, Law::Pd(PdGains::BASELINE), peer)
     )?;
     let seconds = started.elapsed().as_secs_f64();
     if let Some(path) = &a.csv {
@@ -146,6 +180,21 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
     };
     let (sc, sb) = (stats(|c| &c.controller), stats(|c| &c.baseline));
+    let sp: Option<Vec<Summary>> = peer.is_some().then(|| {
+        SUMMARY
+            .iter()
+            .map(|(name, pick)| {
+                (
+                    *name,
+                    percentiles(cases.iter().map(|c| c.peer.as_ref().and_then(pick))),
+                )
+            })
+            .collect()
+    });
+    let bp = cases
+        .iter()
+        .filter(|c| c.peer.as_ref().is_some_and(|m| m.breakdown_at_s.is_some()))
+        .count();
     if a.json {
         let obj = |s: &[Summary]| {
             s.iter()
@@ -160,11 +209,24 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
                 })
                 .collect::<serde_json::Map<_, _>>()
         };
-        let v = json!({
+        let mut v = json!({
             "controller": kind, "preset": a.plant.preset.name(), "modes": a.plant.modes,
             "cases": a.cases, "spread": a.spread, "payload_max_kg": a.payload_max, "seed": a.seed, "seconds": seconds,
             "breakdowns": bc, "baseline_breakdowns": bb, "metrics": obj(&sc), "baseline_metrics": obj(&sb),
         });
+        if let (Some(sp), serde_json::Value::Object(o)) = (&sp, &mut v) {
+            o.insert("peer".into(), json!("pd-ff"));
+            o.insert("peer_breakdowns".into(), json!(bp));
+            o.insert("peer_metrics".into(), serde_json::Value::Object(obj(sp)));
+        }
+        if let serde_json::Value::Object(o) = &mut v {
+            if a.coulomb_max > 0.0 {
+                o.insert("coulomb_max_nm".into(), json!(a.coulomb_max));
+            }
+            if !a.moves.is_empty() {
+                o.insert("moves_deg".into(), json!(a.moves));
+            }
+        }
         println!("{v}");
         return Ok(());
     }
@@ -177,17 +239,24 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         a.payload_max
     );
     println!("  model breakdowns: {kind} {bc}, pd {bb} (metrics below are over the runs that stayed in range)");
+    if sp.is_some() {
+        println!("  pd-ff peer (its table shaper): {bp} breakdowns");
+    }
     println!(
-        "  {:32} {:>30} {:>30}",
-        "metric (p50 / p95 / max)", kind, "pd 20/1"
+        "  {:32} {:>30} {:>30} {:>30}",
+        "metric (p50 / p95 / max)",
+        kind,
+        "pd 20/1",
+        if sp.is_some() { "pd-ff" } else { "" }
     );
     let fmt = |p: Option<(f64, f64, f64)>| {
         p.map_or("n/a".to_string(), |(a, b, c)| {
             format!("{a:.3} / {b:.3} / {c:.3}")
         })
     };
-    for ((name, c), (_, b)) in sc.iter().zip(&sb) {
-        println!("  {name:32} {:>30} {:>30}", fmt(*c), fmt(*b));
+    for (i, ((name, c), (_, b))) in sc.iter().zip(&sb).enumerate() {
+        let p = sp.as_ref().map_or(String::new(), |sp| fmt(sp[i].1));
+        println!("  {name:32} {:>30} {:>30} {:>30}", fmt(*c), fmt(*b), p);
     }
     Ok(())
 }
