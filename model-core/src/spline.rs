@@ -73,25 +73,7 @@ impl<const K: usize> Spline<K> {
     /// A spline through `knots` given as `(time_s, position_rad)`, starting at t = 0.
     pub fn try_build(knots: &[(f32, f32)]) -> Result<Self, SplineError> {
         let n = knots.len();
-        if n < 2 {
-            return Err(SplineError::TooFewKnots);
-        }
-        if n > K {
-            return Err(SplineError::TooManyKnots { capacity: K });
-        }
-        for (index, (t, p)) in knots.iter().enumerate() {
-            if !t.is_finite() || !p.is_finite() {
-                return Err(SplineError::NonFinite { index });
-            }
-        }
-        if knots[0].0 != 0.0 {
-            return Err(SplineError::FirstKnotNotAtZero);
-        }
-        for index in 1..n {
-            if !(knots[index].0 > knots[index - 1].0) {
-                return Err(SplineError::TimesNotIncreasing { index });
-            }
-        }
+        Self::check(n, |i| (knots[i].0, knots[i].1.is_finite()))?;
         // Knot velocities and accelerations: rest at the ends, central differences inside.
         let slope = |i: usize| (knots[i + 1].1 - knots[i].1) / (knots[i + 1].0 - knots[i].0);
         let vel_acc = |i: usize| -> (f32, f32) {
@@ -126,25 +108,10 @@ impl<const K: usize> Spline<K> {
     /// exactly. Starts at t = 0; the first and last states should be at rest.
     pub fn try_from_states(states: &[(f32, f32, f32, f32)]) -> Result<Self, SplineError> {
         let n = states.len();
-        if n < 2 {
-            return Err(SplineError::TooFewKnots);
-        }
-        if n > K {
-            return Err(SplineError::TooManyKnots { capacity: K });
-        }
-        for (index, &(t, p, v, a)) in states.iter().enumerate() {
-            if !(t.is_finite() && p.is_finite() && v.is_finite() && a.is_finite()) {
-                return Err(SplineError::NonFinite { index });
-            }
-        }
-        if states[0].0 != 0.0 {
-            return Err(SplineError::FirstKnotNotAtZero);
-        }
-        for index in 1..n {
-            if !(states[index].0 > states[index - 1].0) {
-                return Err(SplineError::TimesNotIncreasing { index });
-            }
-        }
+        Self::check(n, |i| {
+            let (t, p, v, a) = states[i];
+            (t, p.is_finite() && v.is_finite() && a.is_finite())
+        })?;
         let mut segments = Vec::new();
         for w in states.windows(2) {
             let _ = segments.push(Segment::hermite(w[0], w[1]));
@@ -155,6 +122,32 @@ impl<const K: usize> Spline<K> {
             end: states[n - 1].1,
             duration_s: states[n - 1].0,
         })
+    }
+
+    /// The knots' rules, for `n` knots whose `knot(i)` gives the time and whether the rest of
+    /// the knot is finite: 2 to K knots, all finite, the first at t = 0, times increasing.
+    fn check(n: usize, knot: impl Fn(usize) -> (f32, bool)) -> Result<(), SplineError> {
+        if n < 2 {
+            return Err(SplineError::TooFewKnots);
+        }
+        if n > K {
+            return Err(SplineError::TooManyKnots { capacity: K });
+        }
+        for index in 0..n {
+            let (t, rest_finite) = knot(index);
+            if !(t.is_finite() && rest_finite) {
+                return Err(SplineError::NonFinite { index });
+            }
+        }
+        if knot(0).0 != 0.0 {
+            return Err(SplineError::FirstKnotNotAtZero);
+        }
+        for index in 1..n {
+            if !(knot(index).0 > knot(index - 1).0) {
+                return Err(SplineError::TimesNotIncreasing { index });
+            }
+        }
+        Ok(())
     }
 
     /// Position, velocity and acceleration at `t_s` seconds after the start of the move,
