@@ -62,6 +62,21 @@ impl Param {
     }
 }
 
+/// Bounds of the strain blend c on `model`: where the blended output keeps its control
+/// direction, `1 - c gamma >= 0.25`, and within +-2000.
+fn blend_bounds<const N: usize>(model: &ModalModel<N>) -> (f64, f64) {
+    let minv_h = model_core::linalg::mat_vec(&model.mqq_inv, &model.h);
+    let gamma = model_core::linalg::dot(&model.root_strain_coef, &minv_h);
+    // 1 - c gamma >= 0.25 on the side where c gamma > 0.
+    let edge = 0.75 / gamma.abs().max(1e-12);
+    let (lo, hi) = if gamma > 0.0 {
+        (-4.0 * edge, edge)
+    } else {
+        (-edge, 4.0 * edge)
+    };
+    (lo.max(-2000.0), hi.min(2000.0))
+}
+
 /// Default search bounds for `kind` on `model` (c is kept where the blended output keeps
 /// its control direction, `1 - c gamma >= 0.25`).
 pub fn default_params<const N: usize>(kind: LawKind, model: &ModalModel<N>) -> Vec<Param> {
@@ -75,6 +90,10 @@ pub fn default_params<const N: usize>(kind: LawKind, model: &ModalModel<N>) -> V
             p("wi", 0.1, 10000.0, true),
             p("a", 10.0, 5000.0, true),
             p("beta", 0.003, 5.0, true),
+            {
+                let (lo, hi) = blend_bounds(model);
+                p("c", lo, hi, false)
+            },
         ],
         LawKind::Smc => vec![
             p("w", 1.0, 200.0, true),
@@ -82,20 +101,12 @@ pub fn default_params<const N: usize>(kind: LawKind, model: &ModalModel<N>) -> V
             p("beta", 0.003, 5.0, true),
         ],
         LawKind::SmcStrain => {
-            let minv_h = model_core::linalg::mat_vec(&model.mqq_inv, &model.h);
-            let gamma = model_core::linalg::dot(&model.root_strain_coef, &minv_h);
-            // 1 - c gamma >= 0.25 on the side where c gamma > 0.
-            let edge = 0.75 / gamma.abs().max(1e-12);
-            let (lo, hi) = if gamma > 0.0 {
-                (-4.0 * edge, edge)
-            } else {
-                (-edge, 4.0 * edge)
-            };
+            let (lo, hi) = blend_bounds(model);
             vec![
                 p("w", 1.0, 200.0, true),
                 p("a", 10.0, 5000.0, true),
                 p("beta", 0.003, 5.0, true),
-                p("c", lo.max(-2000.0), hi.min(2000.0), false),
+                p("c", lo, hi, false),
             ]
         }
     }
@@ -303,6 +314,7 @@ pub fn law_for(spec: &Spec, x: &[f64]) -> Law {
         LawKind::SmcI => Law::SmcI(SmcIGains {
             w: get("w", 10.0),
             wi: get("wi", 25.0),
+            c: get("c", 0.0),
             a: get("a", 100.0),
             beta: get("beta", 0.1),
             switching: spec.switching,

@@ -72,6 +72,10 @@ struct Common {
     shaper_tolerance: f64,
 }
 
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
 fn default_tolerance() -> f64 {
     0.05
 }
@@ -101,6 +105,9 @@ pub struct SmcIRow {
     pub w: f64,
     /// Integral slope Wi, 1/s^2.
     pub wi: f64,
+    /// Strain blend c, rad per unit strain (0 or absent: on the hub angle).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub c: f64,
     /// Switching gain A, rad/s^2.
     pub a: f64,
     /// Boundary-layer slope beta, s/rad.
@@ -182,7 +189,13 @@ impl Gains {
     pub fn numbers(&self) -> Vec<(&'static str, f64)> {
         match self {
             Gains::Pd(g) | Gains::PdFf(g) => vec![("kp", g.kp), ("kd", g.kd)],
-            Gains::SmcI(g) => vec![("w", g.w), ("wi", g.wi), ("a", g.a), ("beta", g.beta)],
+            Gains::SmcI(g) => vec![
+                ("w", g.w),
+                ("wi", g.wi),
+                ("c", g.c),
+                ("a", g.a),
+                ("beta", g.beta),
+            ],
             Gains::Smc(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta)],
             Gains::SmcStrain(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta), ("c", g.c)],
         }
@@ -560,9 +573,10 @@ pub fn generate_rust(rows: &[Row]) -> String {
                 g.kp as f32, g.kd as f32
             ),
             Gains::SmcI(g) => format!(
-                "crate::law::Law::SmcI(crate::law::SmcIGains {{ w: {:?}, wi: {:?}, a: {:?}, beta: {:?}, switching: {} }})",
+                "crate::law::Law::SmcI(crate::law::SmcIGains {{ w: {:?}, wi: {:?}, c: {:?}, a: {:?}, beta: {:?}, switching: {} }})",
                 g.w as f32,
                 g.wi as f32,
+                g.c as f32,
                 g.a as f32,
                 g.beta as f32,
                 switching(g.switching)

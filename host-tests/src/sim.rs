@@ -45,6 +45,7 @@ pub const HAND_PICKED_SMC_STRAIN: StrainSmcGains = StrainSmcGains {
 pub const HAND_PICKED_SMC_I: SmcIGains = SmcIGains {
     w: 10.0,
     wi: 25.0,
+    c: 0.0,
     a: 100.0,
     beta: 0.1,
     switching: Switching::Tanh,

@@ -210,6 +210,7 @@ fn the_integral_sliding_mode_rejects_a_load_below_jeff_a() {
     let (dev, _) = deviation_under_load(Law::SmcI(model_core::SmcIGains {
         w: 30.0,
         wi: 200.0,
+        c: 0.0,
         a: 200.0,
         beta: 1.0,
         switching: model_core::Switching::Tanh,

@@ -93,6 +93,7 @@ fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
         (Law::SmcI(a), Law::SmcI(b)) => Law::SmcI(SmcIGains {
             w: mix(a.w, b.w),
             wi: mix(a.wi, b.wi),
+            c: mix(a.c, b.c),
             a: mix(a.a, b.a),
             beta: mix(a.beta, b.beta),
             switching: a.switching,

@@ -63,11 +63,13 @@ pub struct PdFfGains {
     pub kd: f32,
 }
 
-/// Integral sliding-mode gains. With `e = theta - theta_r` and `z` its integral over the move,
-/// the surface is `s = e' + W e + Wi z` and
-/// `tau = Mtt theta_r'' - Jeff (W e' + Wi e + A f(beta s))`: on `s = 0` the error obeys
-/// `e'' + W e' + Wi e = 0`, and a constant load `d` with `|d| < Jeff A` is absorbed by `z`, so
-/// the hub returns to the reference under it.
+/// Integral sliding-mode gains. On the output `y = theta + c eps_root` (c = 0: the hub angle),
+/// with `e = y - theta_r` and `z` its integral over the move, the surface is
+/// `s = e' + W e + Wi z` and `tau = Mtt theta_r'' - Jc (W e' + Wi e + A f(beta s))`, where
+/// `Jc = [C M^-1 B]^-1` is Jeff for c = 0 and `Jeff / (1 - c gamma)` with the blend (as for
+/// smc-strain). On `s = 0` the error obeys `e'' + W e' + Wi e = 0`; a constant load `d` with
+/// `|d| < Jc A` is absorbed by `z`, so the output returns to the reference under it, and the
+/// strain blend lets the sliding motion damp the beam.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SmcIGains {
@@ -75,7 +77,9 @@ pub struct SmcIGains {
     pub w: f32,
     /// Integral slope Wi, 1/s^2.
     pub wi: f32,
-    /// Switching gain A, rad/s^2: `Jeff A` is the largest load the drive holds.
+    /// Strain blend c, rad per unit strain (0: the surface is on the hub angle alone).
+    pub c: f32,
+    /// Switching gain A, rad/s^2: `Jc A` is the largest load the drive holds.
     pub a: f32,
     /// Boundary-layer slope beta, s/rad.
     pub beta: f32,
@@ -242,13 +246,17 @@ impl ControlLaw {
             Law::SmcI(g) => {
                 smc(g.w, g.a, g.beta)?;
                 finite("wi", g.wi)?;
+                finite("c", g.c)?;
                 if g.wi < 0.0 {
                     return bad("wi", ParamErrorKind::Negative);
                 }
-                // Jeff A beta Wi |z| <= the drive's limit (infinite without integral action).
-                let per_z = jeff * (g.a * g.beta * g.wi) as f64;
+                // The blended output's input gain, as for smc-strain (Jeff when c = 0).
+                let jc = Self::blended_inertia(g.c as f64, model)?;
+                // Jc A beta Wi |z| <= the drive's limit (infinite without integral action).
+                let per_z = jc * (g.a * g.beta * g.wi) as f64;
                 let limit = model.beam.params().torque_limit_nm;
                 Ok(Self {
+                    inertia: jc as f32,
                     integral_max: if per_z > 0.0 {
                         (limit / per_z) as f32
                     } else {
@@ -258,6 +266,25 @@ impl ControlLaw {
                 })
             }
         }
+    }
+
+    /// `[C M0^-1 B]^-1 = Jeff / (1 - c gamma)` for the output y = theta + c eps_root (see
+    /// `strain_law`); Jeff itself for c = 0. Refused where the blend would take the output's
+    /// control direction away.
+    fn blended_inertia<const N: usize>(c: f64, m: &ModalModel<N>) -> Result<f64, ParamError> {
+        if c == 0.0 {
+            return Ok(m.jeff);
+        }
+        let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
+        let gamma = crate::linalg::dot(&m.root_strain_coef, &minv_h);
+        let ratio = 1.0 - c * gamma;
+        if !(ratio >= MIN_INPUT_GAIN_RATIO as f64) {
+            return Err(ParamError {
+                field: "c",
+                kind: ParamErrorKind::OutOfRange,
+            });
+        }
+        Ok(m.jeff / ratio)
     }
 
     /// The strain law's constants. With x = [theta; q], M0 = M(q = 0) and the output row
@@ -345,7 +372,9 @@ impl ControlLaw {
                 self.rigid_inertia * r.acc + g.kp * (r.pos - x.theta) + g.kd * (r.vel - x.omega)
             }
             Law::SmcI(g) => {
-                let (e, de) = (x.theta - r.pos, x.omega - r.vel);
+                let y = x.theta + g.c * x.strain;
+                let dy = x.omega + g.c * x.strain_rate;
+                let (e, de) = (y - r.pos, dy - r.vel);
                 let m = self.integral_max;
                 let z = state.integral + e * ts_s;
                 // Comparisons, not clamp/min/max (an assertion or a library call on the M4F).
@@ -413,6 +442,46 @@ mod tests {
             ..Default::default()
         };
         assert!(law.torque_nm(&behind, &r, &mut LawState::default(), 1e-3) > u);
+    }
+
+    #[test]
+    fn smc_i_feeds_the_whole_rigid_inertia_forward_and_its_blend_sees_the_strain() {
+        let m = model();
+        let g = SmcIGains {
+            w: 30.0,
+            wi: 200.0,
+            c: 0.0,
+            a: 100.0,
+            beta: 0.5,
+            switching: Switching::Tanh,
+        };
+        let r = RefPoint {
+            pos: 0.3,
+            vel: 2.0,
+            acc: 40.0,
+        };
+        let on = Estimate {
+            theta: 0.3,
+            omega: 2.0,
+            ..Default::default()
+        };
+        // On the reference the torque is Mtt theta_r'': the hub, beam and payload inertia,
+        // not Jeff (about 3.8 times Jeff on the aluminium beam).
+        let law = ControlLaw::try_build(Law::SmcI(g), &m).unwrap();
+        let u = law.torque_nm(&on, &r, &mut LawState::default(), 1e-3);
+        assert!((u as f64 - m.mtt * 40.0).abs() < 1e-5 * m.mtt * 40.0, "{u}");
+        // Without a blend the strain is ignored; with one, the same strain changes the torque.
+        let bent = Estimate {
+            strain: 2e-4,
+            strain_rate: 0.05,
+            ..on
+        };
+        assert_eq!(law.torque_nm(&bent, &r, &mut LawState::default(), 1e-3), u);
+        let blended = ControlLaw::try_build(Law::SmcI(SmcIGains { c: 5.0, ..g }), &m).unwrap();
+        assert_ne!(
+            blended.torque_nm(&bent, &r, &mut LawState::default(), 1e-3),
+            u
+        );
     }
 
     #[test]

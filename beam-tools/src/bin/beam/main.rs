@@ -499,7 +499,7 @@ fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
         LawKind::Pd | LawKind::PdFf => &["kp", "kd"],
         LawKind::Smc => &["w", "a", "beta", "switching"],
         LawKind::SmcStrain => &["w", "a", "beta", "switching", "c", "model-terms"],
-        LawKind::SmcI => &["w", "wi", "a", "beta", "switching"],
+        LawKind::SmcI => &["w", "wi", "c", "a", "beta", "switching"],
     };
     for (flag, set) in [
         ("kp", a.kp.is_some()),
@@ -542,6 +542,7 @@ fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
         Law::SmcI(g) => Law::SmcI(SmcIGains {
             w: a.w.unwrap_or(g.w),
             wi: a.wi.unwrap_or(g.wi),
+            c: a.c.unwrap_or(g.c),
             a: a.a.unwrap_or(g.a),
             beta: a.beta.unwrap_or(g.beta),
             switching: a.switching.unwrap_or(g.switching),
@@ -620,7 +621,7 @@ fn gains_json(law: &Law) -> serde_json::Value {
         }),
         Law::PdFf(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
         Law::SmcI(g) => json!({
-            "w": f(g.w), "wi": f(g.wi), "a": f(g.a), "beta": f(g.beta), "switching": g.switching.name(),
+            "w": f(g.w), "wi": f(g.wi), "c": f(g.c), "a": f(g.a), "beta": f(g.beta), "switching": g.switching.name(),
         }),
     }
 }

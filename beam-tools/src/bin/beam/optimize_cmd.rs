@@ -470,6 +470,7 @@ fn write_row(
         Law::SmcI(g) => Gains::SmcI(gain_table::SmcIRow {
             w: f(g.w),
             wi: f(g.wi),
+            c: f(g.c),
             a: f(g.a),
             beta: f(g.beta),
             switching: g.switching,
