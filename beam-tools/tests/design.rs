@@ -119,3 +119,26 @@ fn every_shipped_row_settles_its_payload_without_breakdown() {
         );
     }
 }
+
+#[test]
+fn every_smc_i_row_switches_hard_enough_to_hold_the_stated_load() {
+    // The disturbance bound the rows are designed for: 0.5 N m at rest. The sliding mode
+    // holds a load below Jc A (Jc = Jeff / (1 - c gamma), the blended output's inertia).
+    const LOAD_NM: f64 = 0.5;
+    let mut rows = 0;
+    for row in GAIN_TABLE {
+        let Law::SmcI(g) = row.law else { continue };
+        rows += 1;
+        let m = model(row.payload_kg as f64);
+        let minv_h = model_core::linalg::mat_vec(&m.mqq_inv, &m.h);
+        let gamma = model_core::linalg::dot(&m.root_strain_coef, &minv_h);
+        let jc = m.jeff / (1.0 - g.c as f64 * gamma);
+        assert!(
+            jc * g.a as f64 >= LOAD_NM,
+            "smc-i at {} kg: Jc A = {} N m",
+            row.payload_kg,
+            jc * g.a as f64
+        );
+    }
+    assert!(rows > 0, "the table has smc-i rows");
+}
