@@ -282,6 +282,63 @@ fn optimize_writes_a_valid_table_row() {
 }
 
 #[test]
+fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
+    let cases: [(&[&str], &str); 9] = [
+        (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
+        (&["simulate", "--shaper-hz", "5"], "--shaper"),
+        (
+            &["simulate", "--shaper", "bumpy", "--shaper-hz", "5"],
+            "--shaper",
+        ),
+        (
+            &["simulate", "--shaper", "zvd", "--shaper-hz", "-3"],
+            "frequency",
+        ),
+        (&["simulate", "--move", "nan"], "--move"),
+        (&["simulate", "--time", "0"], "--time"),
+        (&["simulate", "--load-nm", "0.5"], "--load-at"),
+        (&["optimize", "--robust", "20000"], "--robust"),
+        (&["sweep", "--moves", "-5"], "--moves"),
+    ];
+    for (args, says) in cases {
+        let out = beam(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(out.stdout.is_empty(), "{args:?}");
+    }
+    // A move, a shaper and a load that are fine give the hold figures.
+    let v = json(&beam(&[
+        "simulate",
+        "--controller",
+        "pd-ff",
+        "--move",
+        "30",
+        "--from",
+        "0",
+        "--time",
+        "0.2",
+        "--shaper",
+        "zvd",
+        "--shaper-hz",
+        "5",
+        "--load-nm",
+        "0.5",
+        "--load-at",
+        "1.0",
+        "--load-until",
+        "1.5",
+        "--json",
+    ]));
+    assert!(v["hold_max_dev_deg"].as_f64().unwrap() > 0.0, "{v}");
+    assert!(v.get("hold_recover_s").is_some(), "{v}");
+    // Without a load the hold keys are absent, as before.
+    let v = json(&beam(&["simulate", "--controller", "pd", "--json"]));
+    assert!(v.get("hold_max_dev_deg").is_none(), "{v}");
+}
+
+#[test]
 fn new_commands_reject_bad_input_with_exit_2() {
     let dir = scratch("bad2");
     let bad_csv = dir.join("bad.csv");

@@ -216,12 +216,14 @@ pub fn shaped_quintic<const K: usize>(
     if !(base.is_finite() && base > 0.0) {
         return Err(ShaperError::TooLong);
     }
-    // Breaks: where each shifted quintic starts and ends.
+    // Breaks: where each shifted quintic starts and ends. Breaks within a microsecond are one
+    // (a shaper period equal to the base move's length puts two at the same instant, which
+    // f32 would otherwise make equal times); a microsecond is far below the 1 ms tick.
     let mut breaks = [0.0f64; 2 * MAX_IMPULSES];
     let mut n = 0;
     for (_, t) in impulses.iter() {
         for b in [t, t + base] {
-            if breaks[..n].iter().all(|x| libm::fabs(x - b) > 1e-9) {
+            if breaks[..n].iter().all(|x| libm::fabs(x - b) > 1e-6) {
                 breaks[n] = b;
                 n += 1;
             }
@@ -300,6 +302,21 @@ mod tests {
         // EI leaves its tolerance at the design frequency when undamped (to the curve fit's
         // accuracy: its coefficients are rounded to five digits).
         assert!((r(ShaperKind::Ei, 7.0) - 0.05).abs() < 3e-3);
+    }
+
+    #[test]
+    fn a_shaper_as_long_as_the_move_still_plans() {
+        // ZVD at 5 Hz lasts 0.2 s: with a 0.2 s base move its last impulse starts exactly
+        // where the first component ends (found by the CLI test, as "knot 3 is not later").
+        let sh = Shaper {
+            kind: ShaperKind::Zvd,
+            freq_hz: 5.0,
+            damping: 0.0,
+            tolerance: 0.05,
+        };
+        let s = shaped_quintic::<8>(0.0, 0.5, 0.2, &sh, Timing::Stretch).unwrap();
+        assert!((s.duration_s() - 0.4).abs() < 1e-6);
+        assert!((s.eval(0.4).pos - 0.5).abs() < 1e-6);
     }
 
     #[test]

@@ -193,20 +193,25 @@ pub(crate) struct MoveArgs {
     #[arg(long = "from", value_name = "DEG", allow_negative_numbers = true, default_value_t = -90.0)]
     from_deg: f64,
     /// Duration of the (base) quintic, s.
-    #[arg(long = "time", value_name = "S", default_value_t = 0.35)]
+    #[arg(
+        long = "time",
+        value_name = "S",
+        default_value_t = 0.35,
+        allow_negative_numbers = true
+    )]
     time_s: f64,
     /// Input shaper on the reference [default: the gain table's for the law, else none].
     #[arg(long, value_parser = named::<ShaperKind>())]
     shaper: Option<ShaperKind>,
     /// The shaped mode's frequency, Hz (optimize: the search's start is not used; the
     /// frequency is searched).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     shaper_hz: Option<f32>,
     /// The shaped mode's damping ratio.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     shaper_damping: f32,
     /// EI: the residual vibration allowed at the design frequency (fraction).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
     shaper_tolerance: f32,
     /// Shorten the base quintic so the shaped move still ends at --time.
     #[arg(long)]
@@ -286,10 +291,20 @@ struct LoadArgs {
     )]
     load_nm: Option<f64>,
     /// When the load is applied, s after the move starts.
-    #[arg(long, value_name = "S", requires = "load_nm")]
+    #[arg(
+        long,
+        value_name = "S",
+        requires = "load_nm",
+        allow_negative_numbers = true
+    )]
     load_at: Option<f64>,
     /// When it is removed, s [default: never, within the run].
-    #[arg(long, value_name = "S", requires = "load_nm")]
+    #[arg(
+        long,
+        value_name = "S",
+        requires = "load_nm",
+        allow_negative_numbers = true
+    )]
     load_until: Option<f64>,
 }
 
@@ -405,9 +420,19 @@ fn main() -> ExitCode {
             ) {
                 e.exit();
             }
-            // One line, like every other error: clap's usage block would follow it.
+            // One line, like every other error: clap's first paragraph (which names a
+            // missing argument on its second line) without the usage block after it.
             let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
+            let first: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let first = if first.is_empty() {
+                "invalid arguments".to_string()
+            } else {
+                first.join(" ")
+            };
             eprintln!(
                 "beam: {} (see beam --help)",
                 first.trim_start_matches("error: ")

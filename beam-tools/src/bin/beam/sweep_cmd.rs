@@ -37,7 +37,7 @@ pub struct SweepArgs {
     coulomb_max: f64,
     /// Move amplitudes, deg, taken in turn by the cases at their planned times (0.35 s *
     /// sqrt(deg / 180)), shaped by each law's table shaper [default: the paper's slew].
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     moves: Vec<f64>,
     /// Do not run the pd-ff peer (feedforward + PD with its table shaper) on each case.
     #[arg(long)]
