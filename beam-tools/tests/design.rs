@@ -130,9 +130,7 @@ fn every_smc_i_row_switches_hard_enough_to_hold_the_stated_load() {
         let Law::SmcI(g) = row.law else { continue };
         rows += 1;
         let m = model(row.payload_kg as f64);
-        let minv_h = model_core::linalg::mat_vec(&m.mqq_inv, &m.h);
-        let gamma = model_core::linalg::dot(&m.root_strain_coef, &minv_h);
-        let jc = m.jeff / (1.0 - g.c as f64 * gamma);
+        let jc = m.jeff / (1.0 - g.c as f64 * model_core::law::strain_coupling(&m));
         assert!(
             jc * g.a as f64 >= LOAD_NM,
             "smc-i at {} kg: Jc A = {} N m",

@@ -145,6 +145,27 @@ pub struct LawState {
     pub integral: f32,
 }
 
+/// gamma = e' Mqq^-1 h, how much a hub acceleration shows in the root strain of the held
+/// beam: the blended output y = theta + c eps_root has the input gain (1 - c gamma) / Jeff.
+pub fn strain_coupling<const N: usize>(m: &ModalModel<N>) -> f64 {
+    let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
+    crate::linalg::dot(&m.root_strain_coef, &minv_h)
+}
+
+/// `1 - c gamma`, refused below [`MIN_INPUT_GAIN_RATIO`], where the blend would take the
+/// output's control direction away.
+fn input_gain_ratio<const N: usize>(c: f64, m: &ModalModel<N>) -> Result<f64, ParamError> {
+    let ratio = 1.0 - c * strain_coupling(m);
+    if ratio >= MIN_INPUT_GAIN_RATIO as f64 {
+        Ok(ratio)
+    } else {
+        Err(ParamError {
+            field: "c",
+            kind: ParamErrorKind::OutOfRange,
+        })
+    }
+}
+
 /// Smallest admissible `1 - c gamma`: the blended output's input gain relative to the hub's.
 /// Below it the surface's control direction nearly vanishes (or flips).
 const MIN_INPUT_GAIN_RATIO: f32 = 0.2;
@@ -269,22 +290,9 @@ impl ControlLaw {
     }
 
     /// `[C M0^-1 B]^-1 = Jeff / (1 - c gamma)` for the output y = theta + c eps_root (see
-    /// `strain_law`); Jeff itself for c = 0. Refused where the blend would take the output's
-    /// control direction away.
+    /// `strain_law`); Jeff itself for c = 0.
     fn blended_inertia<const N: usize>(c: f64, m: &ModalModel<N>) -> Result<f64, ParamError> {
-        if c == 0.0 {
-            return Ok(m.jeff);
-        }
-        let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
-        let gamma = crate::linalg::dot(&m.root_strain_coef, &minv_h);
-        let ratio = 1.0 - c * gamma;
-        if !(ratio >= MIN_INPUT_GAIN_RATIO as f64) {
-            return Err(ParamError {
-                field: "c",
-                kind: ParamErrorKind::OutOfRange,
-            });
-        }
-        Ok(m.jeff / ratio)
+        Ok(m.jeff / input_gain_ratio(c, m)?)
     }
 
     /// The strain law's constants. With x = [theta; q], M0 = M(q = 0) and the output row
@@ -300,14 +308,7 @@ impl ControlLaw {
         let c = g.c as f64;
         let e = m.root_strain_coef;
         let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
-        let gamma = crate::linalg::dot(&e, &minv_h);
-        let ratio = 1.0 - c * gamma;
-        if !(ratio >= MIN_INPUT_GAIN_RATIO as f64) {
-            return Err(ParamError {
-                field: "c",
-                kind: ParamErrorKind::OutOfRange,
-            });
-        }
+        let ratio = input_gain_ratio(c, m)?;
         let r_theta = ratio / m.jeff;
         let e_minv = crate::linalg::mat_vec(&m.mqq_inv, &e); // Mqq^-1 symmetric: e' Mqq^-1
         let r_q: [f64; N] = core::array::from_fn(|j| c * e_minv[j] - r_theta * minv_h[j]);
@@ -523,10 +524,7 @@ mod tests {
         );
         assert_eq!(err(Law::Pd(PdGains { kp: -1.0, kd: 1.0 })).field, "kp");
         // A blend so large that the surface loses its control direction is rejected.
-        let gamma_sign = {
-            let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
-            crate::linalg::dot(&m.root_strain_coef, &minv_h).signum() as f32
-        };
+        let gamma_sign = strain_coupling(&m).signum() as f32;
         assert_eq!(err(strain(gamma_sign * 1e6)).field, "c");
     }
 }

@@ -302,6 +302,15 @@ mod tests {
         })
     }
 
+    #[test]
+    fn the_paper_slew_is_its_degrees_and_milliseconds_exactly() {
+        // The CLI plans moves from degrees and seconds; the default move must be the paper's
+        // constants to the bit, so no special case is needed for it.
+        assert_eq!((-90f64).to_radians() as f32, paper_slew::FROM_RAD);
+        assert_eq!(90f64.to_radians() as f32, paper_slew::TO_RAD);
+        assert_eq!(0.35f64 as f32, paper_slew::TIME_S);
+    }
+
     proptest! {
         #[test]
         fn passes_through_knots_at_rest_at_the_ends(k in knots()) {

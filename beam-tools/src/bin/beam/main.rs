@@ -258,21 +258,14 @@ impl MoveArgs {
         } else {
             Timing::Stretch
         };
-        // The paper's slew exactly as its constants say (not through degrees).
-        let motion = if self.to_deg.is_none() && self.from_deg == -90.0 && self.time_s == 0.35 {
-            Motion {
-                shaper,
-                timing,
-                ..Motion::default()
-            }
-        } else {
-            Motion {
-                from_rad: self.from_deg.to_radians() as f32,
-                to_rad: to.to_radians() as f32,
-                time_s: self.time_s as f32,
-                shaper,
-                timing,
-            }
+        // The defaults (-90, 90 deg, 0.35 s) convert to exactly the f32 constants of
+        // model-core's `paper_slew`, so the paper's slew needs no special case.
+        let motion = Motion {
+            from_rad: self.from_deg.to_radians() as f32,
+            to_rad: to.to_radians() as f32,
+            time_s: self.time_s as f32,
+            shaper,
+            timing,
         };
         motion.plan()?;
         Ok(motion)
