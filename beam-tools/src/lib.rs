@@ -1,8 +1,8 @@
 //! The tools of the slewing-beam toolchain, behind the `beam` command line: gain design
 //! ([`optimize`]), parameter identification from a logged move ([`calibrate`]), Monte Carlo
 //! robustness ([`sweep`]), the processor-in-the-loop host ([`pil_host`]), the drive's
-//! telemetry ([`telemetry`]), parameter files ([`params_file`]), plots ([`plot`]) and output
-//! files written whole ([`files`]).
+//! telemetry ([`telemetry`]), parameter files ([`params_file`]), gain tables read at run time
+//! ([`table`]), plots ([`plot`]) and output files written whole ([`files`]).
 //!
 //! They all run model-core's controller against the simulated world of `host-tests`.
 #![forbid(unsafe_code)]
@@ -14,4 +14,5 @@ pub mod params_file;
 pub mod pil_host;
 pub mod plot;
 pub mod sweep;
+pub mod table;
 pub mod telemetry;

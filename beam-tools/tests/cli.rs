@@ -515,6 +515,14 @@ fn every_subcommand_rejects_each_kind_of_bad_input_in_one_line() {
         vec!["sweep", "--params", &bt, "--csv", &out_csv],
         vec!["sweep", "--cases", "0", "--csv", &out_csv],
         vec!["sweep", "--payload-max", "nan", "--csv", &out_csv],
+        vec![
+            "sweep",
+            "--table",
+            "/nonexistent/gains.toml",
+            "--csv",
+            &out_csv,
+        ],
+        vec!["sweep", "--table", &bt, "--csv", &out_csv],
         // pil
         vec![
             "pil",
@@ -555,4 +563,84 @@ fn every_subcommand_rejects_each_kind_of_bad_input_in_one_line() {
     }
     eprintln!("{} bad invocations, each refused in one line", cases.len());
     std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
+    let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/../gains.toml");
+    let args = |table: Option<&str>, csv: &str| {
+        let mut a = vec![
+            "sweep".to_string(),
+            "--controller".into(),
+            "smc-i".into(),
+            "--cases".into(),
+            "8".into(),
+            "--moves".into(),
+            "15,90".into(),
+            "--coulomb-max".into(),
+            "0.05".into(),
+            "--csv".into(),
+            csv.into(),
+            "--json".into(),
+        ];
+        if let Some(t) = table {
+            a.extend(["--table".to_string(), t.to_string()]);
+        }
+        a
+    };
+    let dir = scratch("sweep-table");
+    let (a, b) = (dir.join("a.csv"), dir.join("b.csv"));
+    let run = |table, csv: &PathBuf| {
+        let argv = args(table, csv.to_str().unwrap());
+        json(&beam(&argv.iter().map(String::as_str).collect::<Vec<_>>()))
+    };
+    // The shipped table read at run time runs exactly what the compiled one does.
+    let (compiled, loaded) = (run(None, &a), run(Some(shipped), &b));
+    assert_eq!(compiled["metrics"], loaded["metrics"]);
+    assert_eq!(compiled["peer_metrics"], loaded["peer_metrics"]);
+    let text = std::fs::read_to_string(&a).unwrap();
+    assert_eq!(text, std::fs::read_to_string(&b).unwrap());
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for col in [
+        "coulomb_nm",
+        "move_deg",
+        "ctl_peak_torque_nm",
+        "peer_err_deg_t0_6",
+    ] {
+        assert!(header.contains(&col), "no column {col}: {header:?}");
+    }
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 8);
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for r in &rows {
+        assert_eq!(r.len(), header.len());
+        let coulomb: f64 = r[at("coulomb_nm")].parse().unwrap();
+        assert!((0.0..=0.05).contains(&coulomb));
+    }
+    // Cases take the moves in turn.
+    let moves: Vec<&str> = rows.iter().map(|r| r[at("move_deg")]).collect();
+    assert_eq!(moves[..4], ["15", "90", "15", "90"]);
+    // A table without the controller's rows is refused, naming the file.
+    let only_pd_ff: String = std::fs::read_to_string(shipped)
+        .unwrap()
+        .split("[[row]]")
+        .skip(1)
+        .filter(|r| r.contains("controller = \"pd-ff\""))
+        .map(|r| format!("[[row]]{r}"))
+        .collect();
+    let t = dir.join("pd-ff.toml");
+    std::fs::write(&t, only_pd_ff).unwrap();
+    let out = beam(
+        &args(Some(t.to_str().unwrap()), a.to_str().unwrap())
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("pd-ff.toml") && err.contains("no smc-i row"),
+        "{err}"
+    );
 }

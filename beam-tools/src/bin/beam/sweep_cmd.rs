@@ -1,7 +1,7 @@
 //! `beam sweep`: Monte Carlo over parameter errors and payloads, the scheduled controller
 //! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
 
-use crate::{beam, default_law, named, PlantArgs};
+use crate::{beam, named, PlantArgs};
 use anyhow::{bail, Context};
 use beam_tools::plot::{histograms, HistogramPanel};
 use beam_tools::sweep::{percentiles, sweep, Case, SweepSpec};
@@ -39,6 +39,10 @@ pub struct SweepArgs {
     /// sqrt(deg / 180)), shaped by each law's table shaper [default: the paper's slew].
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     moves: Vec<f64>,
+    /// Gains and shapers from this table (as `beam optimize --table` writes it) instead of
+    /// the compiled one, for the controller and the peer.
+    #[arg(long, value_name = "FILE")]
+    table: Option<PathBuf>,
     /// Do not run the pd-ff peer (feedforward + PD with its table shaper) on each case.
     #[arg(long)]
     no_peer: bool,
@@ -96,14 +100,26 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     }
     let nominal = *beam(&a.plant)?.params();
     let kind = a.controller.name();
+    let loaded = match &a.table {
+        Some(path) => Some(beam_tools::table::gain_rows(&gain_table::load(path)?)),
+        None => None,
+    };
+    let table = loaded.as_deref().unwrap_or(model_core::gains::GAIN_TABLE);
+    if loaded.is_some() && !table.iter().any(|r| r.law.kind() == a.controller) {
+        bail!(
+            "{} has no {} row",
+            a.table
+                .as_ref()
+                .map_or(String::new(), |p| p.display().to_string()),
+            a.controller
+        );
+    }
     let tuned = |k: LawKind| {
         move |payload: f64| {
-            let shaper = model_core::gains::schedule_shaper(
-                model_core::gains::GAIN_TABLE,
-                k,
-                payload as f32,
-            );
-            (default_law(k, Some(payload)), shaper)
+            let p = payload as f32;
+            let law =
+                model_core::gains::schedule(table, k, p).unwrap_or(host_tests::sim::hand_picked(k));
+            (law, model_core::gains::schedule_shaper(table, k, p))
         }
     };
     let law_at = tuned(a.controller);
@@ -264,9 +280,15 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
 fn write_csv(cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
     write!(
         w,
-        "case,payload_kg,ei_scale,rho_scale,jm_scale,friction_scale,damping_scale"
+        "case,payload_kg,ei_scale,rho_scale,jm_scale,friction_scale,damping_scale,coulomb_nm,move_deg"
     )?;
-    for who in ["ctl", "pd"] {
+    let with_peer = cases.iter().any(|c| c.peer.is_some());
+    let columns: &[&str] = if with_peer {
+        &["ctl", "pd", "peer"]
+    } else {
+        &["ctl", "pd"]
+    };
+    for who in columns {
         for (name, _) in SUMMARY {
             write!(w, ",{who}_{name}")?;
         }
@@ -274,14 +296,24 @@ fn write_csv(cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
     }
     writeln!(w)?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+    let empty = Metrics::default();
     for (i, c) in cases.iter().enumerate() {
         let p = &c.perturbation;
         write!(
             w,
-            "{i},{},{},{},{},{},{}",
-            p.payload_kg, p.ei, p.rho, p.jm, p.friction, p.damping
+            "{i},{},{},{},{},{},{},{},{}",
+            p.payload_kg,
+            p.ei,
+            p.rho,
+            p.jm,
+            p.friction,
+            p.damping,
+            opt(p.coulomb_nm),
+            opt(p.move_deg)
         )?;
-        for m in [&c.controller, &c.baseline] {
+        let peer = c.peer.as_ref().unwrap_or(&empty);
+        let runs = [&c.controller, &c.baseline, peer];
+        for m in &runs[..columns.len()] {
             for (_, pick) in SUMMARY {
                 write!(w, ",{}", opt(pick(m)))?;
             }
