@@ -99,6 +99,7 @@ impl Perturbation {
                     time_s: planned_time_s(deg) as f32,
                     shaper,
                     timing: Timing::Stretch,
+                    ..Motion::default()
                 }
             }
         }

@@ -283,8 +283,47 @@ fn optimize_writes_a_valid_table_row() {
 
 #[test]
 fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 15] = [
         (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
+        (&["simulate", "--time", "fast"], "shortest"),
+        (
+            &[
+                "simulate",
+                "--from",
+                "0",
+                "--move",
+                "45",
+                "--via",
+                "1,2,3,4,5,6,7,8",
+            ],
+            "at most 7",
+        ),
+        (&["simulate", "--via", "nan"], "--via"),
+        (
+            &[
+                "simulate", "--from", "0", "--move", "200", "--time", "shortest",
+            ],
+            "outside the range",
+        ),
+        (
+            &[
+                "simulate", "--from", "0", "--move", "45", "--via", "10", "--time", "0.02",
+            ],
+            "needs",
+        ),
+        (
+            &[
+                "simulate",
+                "--time",
+                "shortest",
+                "--shaper",
+                "zvd",
+                "--shaper-hz",
+                "5",
+                "--end-on-time",
+            ],
+            "cannot end on time",
+        ),
         (&["simulate", "--shaper-hz", "5"], "--shaper"),
         (
             &["simulate", "--shaper", "bumpy", "--shaper-hz", "5"],
@@ -643,4 +682,39 @@ fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
         err.contains("pd-ff.toml") && err.contains("no smc-i row"),
         "{err}"
     );
+}
+
+#[test]
+fn simulate_plans_moves_through_waypoints_in_the_shortest_time() {
+    // The planner's shortest 180 deg quintic is speed-bound: 15/8 * pi / T = 20 rad/s at
+    // T = 0.2945 s (its torque, 5.7 N m, is within 60 % of 10 N m there). The planner keeps
+    // a margin (0.1 % on the time, 0.1 % in its speed bound) and rounds up to whole
+    // milliseconds, so it ends within 1 % of that.
+    let run = |extra: &[&str]| {
+        let mut args = vec!["simulate", "--controller", "pd-ff", "--json"];
+        args.extend_from_slice(extra);
+        json(&beam(&args))
+    };
+    let end = |v: &serde_json::Value| v["move_end_s"].as_f64().unwrap();
+    let paper = run(&["--shaper", "none"]);
+    assert!((end(&paper) - 0.35).abs() < 1e-6, "{}", end(&paper));
+    let fast = run(&["--shaper", "none", "--time", "shortest"]);
+    let t_speed = 15.0 / 8.0 * std::f64::consts::PI / 20.0;
+    assert!(
+        end(&fast) >= t_speed && end(&fast) <= t_speed * 1.01,
+        "{}",
+        end(&fast)
+    );
+    // With the table's shaper the beam is left quiet and the hub at rest within 0.5 deg
+    // 0.25 s after each move, through waypoints too.
+    for extra in [
+        &["--time", "shortest"][..],
+        &[
+            "--from", "0", "--move", "45", "--via", "10,-30", "--time", "shortest",
+        ],
+    ] {
+        let v = run(extra);
+        assert!(v["err_deg_t0_6"].as_f64().unwrap() < 0.5, "{extra:?}: {v}");
+        assert_eq!(v["faults"], "none");
+    }
 }

@@ -9,12 +9,13 @@
 use crate::plant::{Breakdown, Plant, State};
 use crate::sensors::{SensorConfig, Sensors};
 use model_core::controller::ConfigError;
+use model_core::planner::MAX_WAYPOINTS;
 use model_core::spline::paper_slew;
+use model_core::{plan_through, Limits, Shaper, Timing, Waypoint};
 use model_core::{
     ControlLaw, Controller, ControllerSettings, Law, LawKind, ModalModel, Mode, PdFfGains, PdGains,
     RawMeasurement, SmcGains, SmcIGains, Spline, StrainSmcGains, Switching, TorqueCommand,
 };
-use model_core::{Shaper, Timing};
 
 /// The paper's move time AT, s, as the host's metrics use it (model-core's
 /// `spline::paper_slew` is the one definition of the slew).
@@ -68,7 +69,7 @@ pub const fn hand_picked(kind: LawKind) -> Law {
 }
 
 /// Knot capacity of the moves the host runs.
-pub const MOVE_CAPACITY: usize = 8;
+pub const MOVE_CAPACITY: usize = model_core::planner::SHAPED_PLAN_KNOTS;
 
 /// How the plant is integrated between ticks.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,6 +128,33 @@ pub struct Motion {
     pub shaper: Shaper,
     /// Whether the shaped move ends at `time_s` (base move shortened) or later.
     pub timing: Timing,
+    /// Waypoints passed on the way to `to_rad` (planned by model-core's planner).
+    pub via: Via,
+    /// Ignore `time_s` and take the shortest time the planner's limits allow.
+    pub shortest: bool,
+}
+
+/// Waypoints a move passes through before its target, rad: at most
+/// `MAX_WAYPOINTS - 1` (the target is the last waypoint).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Via {
+    rad: [f32; MAX_WAYPOINTS - 1],
+    len: usize,
+}
+
+impl Via {
+    /// The waypoints `rad`, or `None` if there are more than `MAX_WAYPOINTS - 1`.
+    pub fn new(rad: &[f32]) -> Option<Self> {
+        let mut via = Via::default();
+        via.rad.get_mut(..rad.len())?.copy_from_slice(rad);
+        via.len = rad.len();
+        Some(via)
+    }
+
+    /// The waypoints, rad.
+    pub fn as_slice(&self) -> &[f32] {
+        &self.rad[..self.len]
+    }
 }
 
 impl Default for Motion {
@@ -137,13 +165,21 @@ impl Default for Motion {
             time_s: paper_slew::TIME_S,
             shaper: Shaper::NONE,
             timing: Timing::Stretch,
+            via: Via::default(),
+            shortest: false,
         }
     }
 }
 
 impl Motion {
-    /// The reference spline, planned by model-core (the drive plans with the same code).
-    pub fn plan(&self) -> Result<Spline<MOVE_CAPACITY>, SimError> {
+    /// Whether the move goes through the planner (waypoints, or the shortest time), whose
+    /// limits need the drive's model.
+    pub fn needs_planner(&self) -> bool {
+        self.via.len > 0 || self.shortest
+    }
+
+    /// A single move with its time: the (shaped) quintic, with no limits applied.
+    pub fn quintic(&self) -> Result<Spline<MOVE_CAPACITY>, SimError> {
         model_core::shaper::shaped_quintic(
             self.from_rad,
             self.to_rad,
@@ -152,6 +188,32 @@ impl Motion {
             self.timing,
         )
         .map_err(SimError::Shaper)
+    }
+
+    /// The reference spline, planned by model-core (the drive plans with the same code). A
+    /// single move with a time is the shaped quintic; a move through waypoints or in the
+    /// shortest time goes through the planner, within `limits`.
+    pub fn plan(&self, limits: &Limits) -> Result<Spline<MOVE_CAPACITY>, SimError> {
+        if !self.needs_planner() {
+            return self.quintic();
+        }
+        if self.timing == Timing::EndOnTime {
+            return Err(SimError::Option(
+                "a move through waypoints or in the shortest time is stretched by its shaper; it cannot end on time",
+            ));
+        }
+        let mut waypoints = [Waypoint {
+            rad: self.to_rad,
+            at_s: None,
+        }; MAX_WAYPOINTS];
+        for (w, &rad) in waypoints.iter_mut().zip(self.via.as_slice()) {
+            w.rad = rad;
+        }
+        let n = self.via.len + 1;
+        waypoints[n - 1].rad = self.to_rad;
+        let time = (!self.shortest).then_some(self.time_s);
+        plan_through(self.from_rad, &waypoints[..n], time, &self.shaper, limits)
+            .map_err(SimError::Plan)
     }
 }
 
@@ -269,6 +331,9 @@ pub enum SimError {
     /// The shaped move was rejected.
     #[error("move")]
     Shaper(#[source] model_core::ShaperError),
+    /// The planner refused the move.
+    #[error("move")]
+    Plan(#[source] model_core::PlanError),
     /// An option is out of range.
     #[error("{0}")]
     Option(&'static str),
@@ -326,8 +391,9 @@ pub fn simulate_mismatched<const N: usize>(
         ..settings_for(nominal, &opts.sensors)
     };
     let law = ControlLaw::try_build(law, nominal).map_err(|e| SimError::Config(e.into()))?;
-    let controller =
-        Controller::try_build(settings, law, opts.motion.plan()?).map_err(SimError::Config)?;
+    let limits = Limits::for_model(nominal);
+    let controller = Controller::try_build(settings, law, opts.motion.plan(&limits)?)
+        .map_err(SimError::Config)?;
     run(Plant::new(*plant), controller, opts)
 }
 

@@ -6,6 +6,7 @@
 //! [`FaultFlags`](crate::FaultFlags), reported in every [`TorqueCommand`](crate::TorqueCommand).
 
 use crate::modal::MAX_MODES;
+use crate::shaper::ShaperError;
 use core::fmt;
 
 /// What is wrong with a parameter.
@@ -144,6 +145,99 @@ pub enum CommandError {
     Busy,
 }
 
+/// Why a move was not planned. The drive refuses it and keeps what it was doing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PlanError {
+    /// The move needs more time than it was given to keep the torque and speed limits.
+    TooFast {
+        /// The shortest time that keeps them (the same move, uniformly slowed), s.
+        needs_s: f32,
+    },
+    /// A waypoint, the start, or the reference between waypoints leaves the range.
+    OutOfRange {
+        /// The offending angle, rad.
+        rad: f32,
+        /// The range's low end, rad.
+        min_rad: f32,
+        /// The range's high end, rad.
+        max_rad: f32,
+    },
+    /// A move needs at least one waypoint (its target).
+    NoWaypoints,
+    /// More waypoints than a move holds.
+    TooManyWaypoints {
+        /// The most a move holds.
+        max: usize,
+    },
+    /// An angle or a time is NaN or infinite.
+    NonFinite,
+    /// Some waypoints have times and others not, or they have times and the move too.
+    MixedTimes,
+    /// Waypoint times (or the move's time) are not positive and increasing by at least a
+    /// tick (1 ms).
+    TimesNotIncreasing,
+    /// The limits themselves are unusable (not positive, an empty range, or friction that
+    /// uses the whole torque budget).
+    BadLimits,
+    /// No time within 64 tries kept the limits (not expected: the first try is computed).
+    Unplannable,
+    /// The spline could not be built.
+    Spline(SplineError),
+    /// The shaper could not be applied.
+    Shaper(ShaperError),
+}
+
+impl From<SplineError> for PlanError {
+    fn from(e: SplineError) -> Self {
+        PlanError::Spline(e)
+    }
+}
+
+impl From<ShaperError> for PlanError {
+    fn from(e: ShaperError) -> Self {
+        PlanError::Shaper(e)
+    }
+}
+
+impl fmt::Display for PlanError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PlanError::TooFast { needs_s } => write!(
+                f,
+                "too fast for the torque and speed limits: the move needs {needs_s:.3} s"
+            ),
+            PlanError::OutOfRange {
+                rad,
+                min_rad,
+                max_rad,
+            } => write!(
+                f,
+                "{:.2} deg is outside the range {:.2} to {:.2} deg",
+                rad.to_degrees(),
+                min_rad.to_degrees(),
+                max_rad.to_degrees()
+            ),
+            PlanError::NoWaypoints => f.write_str("a move needs a target"),
+            PlanError::TooManyWaypoints { max } => {
+                write!(f, "a move passes through at most {max} waypoints")
+            }
+            PlanError::NonFinite => f.write_str("an angle or time is not a finite number"),
+            PlanError::MixedTimes => f.write_str(
+                "give a time for every waypoint or for none (and then at most one for the move)",
+            ),
+            PlanError::TimesNotIncreasing => {
+                f.write_str("waypoint times must be positive and at least 1 ms apart")
+            }
+            PlanError::BadLimits => f.write_str("the planner's limits are unusable"),
+            PlanError::Unplannable => f.write_str("no time keeps the limits"),
+            PlanError::Spline(e) => e.fmt(f),
+            PlanError::Shaper(e) => e.fmt(f),
+        }
+    }
+}
+
+impl core::error::Error for PlanError {}
 impl core::error::Error for ParamError {}
 impl core::error::Error for ModelError {}
 impl core::error::Error for SplineError {}

@@ -66,6 +66,7 @@ pub mod law;
 pub mod linalg;
 pub mod measure;
 pub mod modal;
+pub mod planner;
 pub mod shaper;
 pub mod spline;
 
@@ -92,5 +93,6 @@ pub use law::{
 };
 pub use measure::{AdcSpec, EncoderSpec};
 pub use modal::{ModalModel, ModelError};
+pub use planner::{plan_move, plan_through, Limits, PlanError, PlannedMove, Waypoint};
 pub use shaper::{Shaper, ShaperError, ShaperKind, Timing};
 pub use spline::{RefPoint, Spline, SplineError};

@@ -20,6 +20,13 @@ use core::fmt;
 /// Most impulses any shaper here has.
 pub const MAX_IMPULSES: usize = 3;
 
+/// Breaks of a shaped move closer than this are merged into one, s. A piece a few
+/// microseconds long, rebuilt in `f32` from its end states, divides position rounding by
+/// its length squared and shows accelerations of thousands of rad/s^2 that the move does
+/// not have; merging keeps the pieces at least a tick long, and the merged piece differs
+/// from the exact sum only by a jerk step within one millisecond.
+pub const MIN_BREAK_S: f64 = 1e-3;
+
 /// A shaper as configured: which train, tuned to which mode.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -216,21 +223,15 @@ pub fn shaped_quintic<const K: usize>(
     if !(base.is_finite() && base > 0.0) {
         return Err(ShaperError::TooLong);
     }
-    // Breaks: where each shifted quintic starts and ends. Breaks within a microsecond are one
-    // (a shaper period equal to the base move's length puts two at the same instant, which
-    // f32 would otherwise make equal times); a microsecond is far below the 1 ms tick.
+    // Breaks: where each shifted quintic starts and ends. Breaks closer than
+    // [`MIN_BREAK_S`] are one (see there).
     let mut breaks = [0.0f64; 2 * MAX_IMPULSES];
-    let mut n = 0;
-    for (_, t) in impulses.iter() {
-        for b in [t, t + base] {
-            if breaks[..n].iter().all(|x| libm::fabs(x - b) > 1e-6) {
-                breaks[n] = b;
-                n += 1;
-            }
-        }
+    for (i, (_, t)) in impulses.iter().enumerate() {
+        breaks[2 * i] = t;
+        breaks[2 * i + 1] = t + base;
     }
-    let breaks = &mut breaks[..n];
-    breaks.sort_unstable_by(|a, b| a.total_cmp(b));
+    let n = merge_breaks(&mut breaks[..2 * impulses.iter().count()]);
+    let breaks = &breaks[..n];
     let (p0, dp) = (from as f64, to as f64 - from as f64);
     // The shaped move's position, velocity and acceleration at `t`, in f64.
     let state = |t: f64| -> (f64, f64, f64) {
@@ -255,6 +256,76 @@ pub fn shaped_quintic<const K: usize>(
     points[0] = (0.0, from, 0.0, 0.0);
     points[n - 1] = (breaks[n - 1] as f32, to, 0.0, 0.0);
     Spline::try_from_states(&points[..n]).map_err(ShaperError::Spline)
+}
+
+/// Sorts `breaks` and merges those closer than [`MIN_BREAK_S`] into the first of each run,
+/// keeping the last break itself (the move's end); returns how many are left, at the front.
+fn merge_breaks(breaks: &mut [f64]) -> usize {
+    breaks.sort_unstable_by(|a, b| a.total_cmp(b));
+    let Some(&last) = breaks.last() else {
+        return 0;
+    };
+    let mut n = 0;
+    for i in 0..breaks.len() {
+        if n == 0 || breaks[i] - breaks[n - 1] >= MIN_BREAK_S {
+            breaks[n] = breaks[i];
+            n += 1;
+        }
+    }
+    breaks[n - 1] = last;
+    n
+}
+
+/// Any move shaped by `shaper`: `r(t) = sum A_i s(t - t_i)`, stretched by the shaper's
+/// length. Between the union of the move's knots shifted by each impulse time the sum is one
+/// quintic, so the result is exact at every point (up to `f32`, and to the merging of breaks
+/// closer than [`MIN_BREAK_S`]). `K2` must hold every
+/// distinct shifted knot (at most the move's knots times the impulses).
+pub fn shape<const K: usize, const K2: usize>(
+    move_: &Spline<K>,
+    shaper: &Shaper,
+) -> Result<Spline<K2>, ShaperError> {
+    let impulses = shaper.impulses()?;
+    let mut all = [0.0f64; crate::planner::SHAPED_PLAN_KNOTS];
+    let mut count = 0;
+    for (_, ti) in impulses.iter() {
+        for tk in move_.knot_times() {
+            let slot =
+                all.get_mut(count)
+                    .ok_or(ShaperError::Spline(SplineError::TooManyKnots {
+                        capacity: crate::planner::SHAPED_PLAN_KNOTS,
+                    }))?;
+            *slot = ti + tk as f64;
+            count += 1;
+        }
+    }
+    let n = merge_breaks(&mut all[..count]);
+    if n > K2 {
+        return Err(ShaperError::Spline(SplineError::TooManyKnots {
+            capacity: K2,
+        }));
+    }
+    let breaks = &all[..n];
+    let mut points: heapless::Vec<(f32, f32, f32, f32), K2> = heapless::Vec::new();
+    for (i, &t) in breaks.iter().enumerate() {
+        let (mut p, mut v, mut a) = (0.0f64, 0.0f64, 0.0f64);
+        for (amp, ti) in impulses.iter() {
+            let r = move_.eval((t - ti) as f32);
+            p += amp * r.pos as f64;
+            v += amp * r.vel as f64;
+            a += amp * r.acc as f64;
+        }
+        let point = if i == 0 {
+            (0.0, move_.start(), 0.0, 0.0)
+        } else if i == n - 1 {
+            (t as f32, move_.end(), 0.0, 0.0)
+        } else {
+            (t as f32, p as f32, v as f32, a as f32)
+        };
+        // n <= K2, checked above.
+        let _ = points.push(point);
+    }
+    Spline::try_from_states(&points).map_err(ShaperError::Spline)
 }
 
 #[cfg(test)]

@@ -36,7 +36,7 @@ use beam_tools::{files as io, plot};
 use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, SimOptions, SimResult};
-use host_tests::sim::{FaultKind, Injection, Motion};
+use host_tests::sim::{FaultKind, Injection, Motion, Via};
 use model_core::{
     Beam, BeamParams, Law, LawKind, ModalModel, PdFfGains, PdGains, Preset, Shaper, ShaperKind,
     SmcGains, SmcIGains, StrainSmcGains, Switching, Timing,
@@ -192,14 +192,25 @@ pub(crate) struct MoveArgs {
     /// Start of the move, deg (where the hub rests before it).
     #[arg(long = "from", value_name = "DEG", allow_negative_numbers = true, default_value_t = -90.0)]
     from_deg: f64,
-    /// Duration of the (base) quintic, s.
+    /// Duration of the (base) move, s, or `shortest`: the shortest time model-core's planner
+    /// allows (rigid-body torque within 60 % of the limit, speed within 20 rad/s).
     #[arg(
         long = "time",
-        value_name = "S",
-        default_value_t = 0.35,
+        value_name = "S|shortest",
+        default_value = "0.35",
+        allow_negative_numbers = true,
+        value_parser = parse_move_time
+    )]
+    time: MoveTime,
+    /// Pass through these hub angles on the way to --move, deg (at most 7; planned by
+    /// model-core's planner, as the drive does).
+    #[arg(
+        long,
+        value_name = "DEG,...",
+        value_delimiter = ',',
         allow_negative_numbers = true
     )]
-    time_s: f64,
+    via: Vec<f64>,
     /// Input shaper on the reference [default: the gain table's for the law, else none].
     #[arg(long, value_parser = named::<ShaperKind>())]
     shaper: Option<ShaperKind>,
@@ -218,6 +229,22 @@ pub(crate) struct MoveArgs {
     end_on_time: bool,
 }
 
+/// A move's `--time`: seconds, or the shortest the planner allows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum MoveTime {
+    Seconds(f64),
+    Shortest,
+}
+
+fn parse_move_time(s: &str) -> Result<MoveTime, String> {
+    if s == "shortest" {
+        return Ok(MoveTime::Shortest);
+    }
+    s.parse()
+        .map(MoveTime::Seconds)
+        .map_err(|_| format!("`{s}` is neither a number of seconds nor `shortest`"))
+}
+
 impl MoveArgs {
     /// The move, checked, with the shaper given or `table` (the gain table's for the law)
     /// when none is. `hz_default` stands in for a missing --shaper-hz (optimize).
@@ -228,12 +255,27 @@ impl MoveArgs {
                 bail!("{flag} {v} must be an angle within +-3600 deg");
             }
         }
-        if !(self.time_s.is_finite() && self.time_s > 0.0 && self.time_s <= 60.0) {
-            bail!(
-                "--time {} must be a number of seconds in (0, 60]",
-                self.time_s
-            );
+        let (time_s, shortest) = match self.time {
+            MoveTime::Seconds(t) if t.is_finite() && t > 0.0 && t <= 60.0 => (t, false),
+            MoveTime::Seconds(t) => {
+                bail!("--time {t} must be a number of seconds in (0, 60], or `shortest`")
+            }
+            MoveTime::Shortest => (0.0, true),
+        };
+        if self
+            .via
+            .iter()
+            .any(|v| !(v.is_finite() && v.abs() <= 3600.0))
+        {
+            bail!("--via takes angles within +-3600 deg");
         }
+        let via_rad: Vec<f32> = self.via.iter().map(|d| d.to_radians() as f32).collect();
+        let Some(via) = Via::new(&via_rad) else {
+            bail!(
+                "--via takes at most {} angles",
+                model_core::planner::MAX_WAYPOINTS - 1
+            );
+        };
         let shaper = match (self.shaper, self.shaper_hz.or(hz_default)) {
             (None, None) => table,
             (None, Some(_)) if self.shaper_hz.is_some() => bail!("--shaper-hz needs a --shaper"),
@@ -263,11 +305,17 @@ impl MoveArgs {
         let motion = Motion {
             from_rad: self.from_deg.to_radians() as f32,
             to_rad: to.to_radians() as f32,
-            time_s: self.time_s as f32,
+            time_s: time_s as f32,
             shaper,
             timing,
+            via,
+            shortest,
         };
-        motion.plan()?;
+        // A single timed move is checked here; the planner's moves need the drive's model
+        // for their limits and are checked when they are planned.
+        if !motion.needs_planner() {
+            motion.quintic()?;
+        }
         Ok(motion)
     }
 }
@@ -397,6 +445,7 @@ fn run_json(
     o.insert("gains".into(), gains_json(law));
     o.insert("breakdown_reason".into(), json!(reason));
     o.insert("faults".into(), json!(run.faults.to_string()));
+    o.insert("move_end_s".into(), json!(run.move_end_s));
     Ok(o)
 }
 

@@ -1,0 +1,546 @@
+//! Moves planned on the drive: rest-to-rest C2 references to a target or through waypoints,
+//! within stated torque, speed and range limits, or refused with the reason
+//! (docs/design.md, section 3).
+//!
+//! The planned torque is the rigid-body one, `Mtt |theta_r''| + Coulomb + viscous |theta_r'|`
+//! (hub, beam and payload as one body), and the plan may use only `torque_fraction` of the
+//! drive's limit: the rest is left to the feedback, which also has to bend the beam and
+//! reject loads. The bounds are checked on the finished spline ([`Spline::peaks`], safe
+//! upper bounds), after shaping, so a plan that is returned keeps them everywhere.
+//!
+//! Without a time the planner picks the shortest one. Scaling a spline's knot times by `s`
+//! scales its speed by `1/s` and its acceleration by `1/s^2` exactly (the knot velocities
+//! and accelerations come from differences of the knots), so the shortest scale follows from
+//! the peaks of one trial plan by solving a quadratic; the result is rounded up to whole
+//! milliseconds and checked again. Everything here runs outside the 1 kHz tick, in `f64`
+//! where it matters, with no allocation.
+
+pub use crate::error::PlanError;
+use crate::modal::ModalModel;
+use crate::shaper::{shape, Shaper, ShaperKind};
+use crate::spline::{Peaks, Spline};
+
+/// Most waypoints a move passes through (the target included).
+pub const MAX_WAYPOINTS: usize = 8;
+
+/// Shortest segment between waypoints, s: one tick.
+pub const MIN_SEGMENT_S: f64 = 1e-3;
+
+/// Knots of an unshaped planned move: the start and the waypoints.
+pub const PLAN_KNOTS: usize = MAX_WAYPOINTS + 1;
+
+/// Knots of a shaped planned move: every knot shifted by each of the shaper's impulses.
+pub const SHAPED_PLAN_KNOTS: usize = PLAN_KNOTS * crate::shaper::MAX_IMPULSES;
+
+/// What a planned move must keep to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Limits {
+    /// The drive's torque limit, N m.
+    pub torque_limit_nm: f32,
+    /// The share of it the planned rigid-body torque may use, in (0, 1].
+    pub torque_fraction: f32,
+    /// Largest reference speed, rad/s.
+    pub max_speed_rad_s: f32,
+    /// Lowest hub angle a move may reach, rad.
+    pub min_rad: f32,
+    /// Highest hub angle a move may reach, rad.
+    pub max_rad: f32,
+    /// Rigid-body inertia of hub, beam and payload, kg m^2 (`Mtt`).
+    pub inertia_kgm2: f32,
+    /// Coulomb friction the plan allows for, N m.
+    pub coulomb_nm: f32,
+    /// Viscous friction the plan allows for, N m s/rad.
+    pub viscous_nms: f32,
+}
+
+impl Limits {
+    /// Share of the drive's torque a plan uses by default (the feedback keeps the rest).
+    pub const DEFAULT_TORQUE_FRACTION: f32 = 0.6;
+    /// Default speed limit, rad/s (the paper's slew peaks at 16.8).
+    pub const DEFAULT_MAX_SPEED_RAD_S: f32 = 20.0;
+    /// Default range, rad: half a turn either side of the zero.
+    pub const DEFAULT_RANGE_RAD: f32 = core::f32::consts::PI;
+
+    /// The defaults for `model`: its rigid inertia (with the payload it was built with),
+    /// friction and torque limit (the drive's 10 N m for the presets).
+    pub fn for_model<const N: usize>(model: &ModalModel<N>) -> Self {
+        let p = model.beam.params();
+        Self {
+            torque_limit_nm: p.torque_limit_nm as f32,
+            torque_fraction: Self::DEFAULT_TORQUE_FRACTION,
+            max_speed_rad_s: Self::DEFAULT_MAX_SPEED_RAD_S,
+            min_rad: -Self::DEFAULT_RANGE_RAD,
+            max_rad: Self::DEFAULT_RANGE_RAD,
+            inertia_kgm2: model.mtt as f32,
+            coulomb_nm: p.coulomb_nm as f32,
+            viscous_nms: p.viscous_nms as f32,
+        }
+    }
+
+    /// The torque the plan may use, N m.
+    pub fn torque_budget_nm(&self) -> f32 {
+        self.torque_limit_nm * self.torque_fraction
+    }
+
+    fn check(&self) -> Result<(), PlanError> {
+        let positive = |x: f32| x.is_finite() && x > 0.0;
+        let ok = positive(self.torque_limit_nm)
+            && positive(self.torque_fraction)
+            && self.torque_fraction <= 1.0
+            && positive(self.max_speed_rad_s)
+            && self.min_rad.is_finite()
+            && self.max_rad.is_finite()
+            && self.min_rad < self.max_rad
+            && positive(self.inertia_kgm2)
+            && self.coulomb_nm.is_finite()
+            && self.coulomb_nm >= 0.0
+            && self.viscous_nms.is_finite()
+            && self.viscous_nms >= 0.0
+            && self.coulomb_nm < self.torque_budget_nm();
+        if ok {
+            Ok(())
+        } else {
+            Err(PlanError::BadLimits)
+        }
+    }
+
+    /// The planned torque bound of a move with these peaks, N m.
+    pub fn planned_torque_nm(&self, p: &Peaks) -> f32 {
+        self.inertia_kgm2 * p.max_abs_acc + self.coulomb_nm + self.viscous_nms * p.max_abs_vel
+    }
+
+    /// Whether a move with these peaks keeps the limits.
+    pub fn admits(&self, p: &Peaks) -> bool {
+        self.planned_torque_nm(p) <= self.torque_budget_nm()
+            && p.max_abs_vel <= self.max_speed_rad_s
+            && p.min_pos >= self.min_rad
+            && p.max_pos <= self.max_rad
+    }
+
+    /// The least time scale `s` (times multiplied by `s`) at which a move with peaks `p` at
+    /// scale 1 keeps the torque and speed limits: `I A / s^2 + b V / s + C <= F` and
+    /// `V / s <= Vmax`.
+    fn least_scale(&self, p: &Peaks) -> f64 {
+        let (a, v) = (p.max_abs_acc as f64, p.max_abs_vel as f64);
+        let (i, b) = (self.inertia_kgm2 as f64, self.viscous_nms as f64);
+        let room = self.torque_budget_nm() as f64 - self.coulomb_nm as f64;
+        // With x = 1/s: i a x^2 + b v x - room <= 0, so x <= the positive root.
+        let qa = i * a;
+        let x = if qa > 0.0 {
+            (-b * v + libm::sqrt(b * b * v * v + 4.0 * qa * room)) / (2.0 * qa)
+        } else if b * v > 0.0 {
+            room / (b * v)
+        } else {
+            f64::INFINITY
+        };
+        let by_torque = 1.0 / x;
+        let by_speed = v / self.max_speed_rad_s as f64;
+        by_torque.max(by_speed)
+    }
+}
+
+/// A point a move passes through.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Waypoint {
+    /// Hub angle, rad.
+    pub rad: f32,
+    /// When to be there, s after the move starts; `None` lets the planner choose.
+    pub at_s: Option<f32>,
+}
+
+/// A planned move, ready to swap into the controller whole.
+pub type PlannedMove = Spline<SHAPED_PLAN_KNOTS>;
+
+/// The move from `from` to `to`: a minimum-jerk quintic lasting `time_s` (or the shortest
+/// the limits allow), shaped by `shaper` (which adds its length).
+pub fn plan_move(
+    from: f32,
+    to: f32,
+    time_s: Option<f32>,
+    shaper: &Shaper,
+    limits: &Limits,
+) -> Result<PlannedMove, PlanError> {
+    let target = Waypoint {
+        rad: to,
+        at_s: None,
+    };
+    plan_through(from, &[target], time_s, shaper, limits)
+}
+
+/// The move from `from` through `waypoints` (the last is the target), at rest at both ends,
+/// passing the interior waypoints without stopping. Either every waypoint has a time (and
+/// `time_s` is `None`) or none does: then the segments share `time_s` (or the shortest time
+/// the limits allow) in proportion to each one's shortest rest-to-rest time.
+pub fn plan_through(
+    from: f32,
+    waypoints: &[Waypoint],
+    time_s: Option<f32>,
+    shaper: &Shaper,
+    limits: &Limits,
+) -> Result<PlannedMove, PlanError> {
+    limits.check()?;
+    if waypoints.is_empty() {
+        return Err(PlanError::NoWaypoints);
+    }
+    if waypoints.len() > MAX_WAYPOINTS {
+        return Err(PlanError::TooManyWaypoints { max: MAX_WAYPOINTS });
+    }
+    let times_finite = waypoints.iter().all(|w| w.at_s.is_none_or(f32::is_finite))
+        && time_s.is_none_or(f32::is_finite);
+    if !from.is_finite() || waypoints.iter().any(|w| !w.rad.is_finite()) || !times_finite {
+        return Err(PlanError::NonFinite);
+    }
+    for &rad in core::iter::once(&from).chain(waypoints.iter().map(|w| &w.rad)) {
+        if rad < limits.min_rad || rad > limits.max_rad {
+            return Err(PlanError::OutOfRange {
+                rad,
+                min_rad: limits.min_rad,
+                max_rad: limits.max_rad,
+            });
+        }
+    }
+    let timed = waypoints.iter().filter(|w| w.at_s.is_some()).count();
+    let given = timed == waypoints.len();
+    if (timed != 0 && !given) || (given && time_s.is_some()) {
+        return Err(PlanError::MixedTimes);
+    }
+    // Knot times at scale 1: the given ones, or the shortest rest-to-rest time of each
+    // segment.
+    let n = waypoints.len() + 1;
+    let mut times = [0.0f64; PLAN_KNOTS];
+    let mut positions = [from; PLAN_KNOTS];
+    for (i, w) in waypoints.iter().enumerate() {
+        positions[i + 1] = w.rad;
+        times[i + 1] = match w.at_s {
+            Some(t) => t as f64,
+            None => times[i] + rest_to_rest_time(limits, (w.rad - positions[i]) as f64),
+        };
+    }
+    let end = times[n - 1];
+    let min_gap = times[..n]
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    if !(min_gap >= MIN_SEGMENT_S) {
+        return Err(PlanError::TimesNotIncreasing);
+    }
+    let build = |scale: f64| -> Result<PlannedMove, PlanError> {
+        let mut knots = [(0.0f32, 0.0f32); PLAN_KNOTS];
+        for (k, (&t, &p)) in knots.iter_mut().zip(times.iter().zip(positions.iter())) {
+            *k = ((t * scale) as f32, p);
+        }
+        if shaper.kind == ShaperKind::None {
+            return Ok(Spline::try_build(&knots[..n])?);
+        }
+        let base: Spline<PLAN_KNOTS> = Spline::try_build(&knots[..n])?;
+        Ok(shape(&base, shaper)?)
+    };
+    // The scale the limits need, from the unshaped plan at scale 1 (shaping with positive
+    // impulses only averages the reference, so it cannot raise the peaks; the check below
+    // holds it to that all the same).
+    let trial: Spline<PLAN_KNOTS> = {
+        let mut knots = [(0.0f32, 0.0f32); PLAN_KNOTS];
+        for (k, (&t, &p)) in knots.iter_mut().zip(times.iter().zip(positions.iter())) {
+            *k = (t as f32, p);
+        }
+        Spline::try_build(&knots[..n])?
+    };
+    let trial = trial.peaks();
+    // Positions do not change with the time scale (nor, beyond the ends, with shaping,
+    // which averages them): a spline that overshoots the range between waypoints does so
+    // at any speed.
+    out_of_range(&trial, limits)?;
+    // ... and no segment may be shorter than a tick.
+    let least = limits.least_scale(&trial).max(MIN_SEGMENT_S / min_gap);
+    // The shortest whole-millisecond end time at or above the least scale that passes the
+    // check (f32 rounding can cost a millisecond).
+    let shortest = || -> Result<(f64, PlannedMove), PlanError> {
+        // A margin of 0.1 % keeps the plan off the bound's edge, where f32 rounding of the
+        // rebuilt spline could tip it over.
+        let mut end_ms = libm::ceil(least * 1.001 * end * 1000.0).max(1.0);
+        for _ in 0..64 {
+            let plan = build(end_ms / 1000.0 / end)?;
+            if limits.admits(&plan.peaks()) {
+                return Ok((end_ms / 1000.0, plan));
+            }
+            end_ms = libm::ceil(end_ms * 1.01);
+        }
+        Err(PlanError::Unplannable)
+    };
+    let scale = match time_s {
+        Some(t) if t > 0.0 => t as f64 / end,
+        Some(_) => return Err(PlanError::TimesNotIncreasing),
+        None if given => 1.0,
+        None => return shortest().map(|(_, plan)| plan),
+    };
+    if scale * min_gap >= MIN_SEGMENT_S {
+        let plan = build(scale)?;
+        let peaks = plan.peaks();
+        if limits.admits(&peaks) {
+            return Ok(plan);
+        }
+        out_of_range(&peaks, limits)?;
+    }
+    let (needs_s, _) = shortest()?;
+    Err(PlanError::TooFast {
+        needs_s: needs_s as f32,
+    })
+}
+
+/// The shortest rest-to-rest quintic over `distance` within the torque and speed limits, s
+/// (peak acceleration `10 / sqrt(3) D / T^2`, peak speed `15/8 D / T`); at least 10 ms.
+fn rest_to_rest_time(limits: &Limits, distance: f64) -> f64 {
+    let d = libm::fabs(distance);
+    let unit = Peaks {
+        min_pos: 0.0,
+        max_pos: 0.0,
+        max_abs_vel: (1.875 * d) as f32,
+        max_abs_acc: (10.0 / libm::sqrt(3.0) * d) as f32,
+    };
+    limits.least_scale(&unit).max(10.0 * MIN_SEGMENT_S)
+}
+
+/// Refuses a move whose reference leaves the range.
+fn out_of_range(p: &Peaks, limits: &Limits) -> Result<(), PlanError> {
+    let rad = if p.min_pos < limits.min_rad {
+        p.min_pos
+    } else if p.max_pos > limits.max_rad {
+        p.max_pos
+    } else {
+        return Ok(());
+    };
+    Err(PlanError::OutOfRange {
+        rad,
+        min_rad: limits.min_rad,
+        max_rad: limits.max_rad,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::beam::{Beam, BeamParams};
+    use proptest::prelude::*;
+
+    fn limits() -> Limits {
+        let m: ModalModel<3> =
+            ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
+        Limits::for_model(&m)
+    }
+
+    const DEG: f32 = core::f32::consts::PI / 180.0;
+
+    #[test]
+    fn the_shortest_quintic_uses_the_torque_budget_as_the_closed_form_says() {
+        // A quintic over D in T peaks at 10/sqrt(3) D/T^2 and 15/8 D/T; the shortest T
+        // solves I a + b v + C = F with both peaks taken together (a safe bound).
+        let l = limits();
+        let d = 90.0 * DEG;
+        let plan = plan_move(0.0, d, None, &Shaper::NONE, &l).unwrap();
+        let t = plan.duration_s() as f64;
+        let (i, b, c, f) = (
+            l.inertia_kgm2 as f64,
+            l.viscous_nms as f64,
+            l.coulomb_nm as f64,
+            l.torque_budget_nm() as f64,
+        );
+        let (a, v) = (
+            10.0 / 3f64.sqrt() * d as f64 / (t * t),
+            1.875 * d as f64 / t,
+        );
+        assert!(i * a + b * v + c <= f * (1.0 + 1e-6));
+        // One millisecond less would break the budget.
+        let t1 = t - 1e-3;
+        let a1 = 10.0 / 3f64.sqrt() * d as f64 / (t1 * t1);
+        assert!(i * a1 + b * 1.875 * d as f64 / t1 + c > f);
+        // It is the minimum-jerk quintic: position halfway at half time.
+        assert!((plan.eval(plan.duration_s() / 2.0).pos - d / 2.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_papers_slew_fits_the_default_limits_and_a_faster_one_is_refused() {
+        let l = limits();
+        let paper = plan_move(-90.0 * DEG, 90.0 * DEG, Some(0.35), &Shaper::NONE, &l).unwrap();
+        assert_eq!(paper.duration_s(), 0.35);
+        match plan_move(-90.0 * DEG, 90.0 * DEG, Some(0.1), &Shaper::NONE, &l) {
+            Err(PlanError::TooFast { needs_s }) => {
+                let shortest = plan_move(-90.0 * DEG, 90.0 * DEG, None, &Shaper::NONE, &l)
+                    .unwrap()
+                    .duration_s();
+                assert_eq!(needs_s, shortest);
+                assert!(needs_s > 0.1 && needs_s < 0.35, "{needs_s}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn refusals_name_the_reason() {
+        let l = limits();
+        let none = Shaper::NONE;
+        let wp = |rad: f32, at_s: Option<f32>| Waypoint { rad, at_s };
+        assert!(matches!(
+            plan_move(0.0, 200.0 * DEG, None, &none, &l),
+            Err(PlanError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            plan_move(f32::NAN, 0.1, None, &none, &l),
+            Err(PlanError::NonFinite)
+        ));
+        assert!(matches!(
+            plan_move(0.0, 0.1, Some(f32::INFINITY), &none, &l),
+            Err(PlanError::NonFinite)
+        ));
+        assert!(matches!(
+            plan_move(0.0, 0.1, Some(-1.0), &none, &l),
+            Err(PlanError::TimesNotIncreasing)
+        ));
+        assert_eq!(
+            plan_through(0.0, &[], None, &none, &l),
+            Err(PlanError::NoWaypoints)
+        );
+        assert_eq!(
+            plan_through(0.0, &[wp(0.1, None); MAX_WAYPOINTS + 1], None, &none, &l),
+            Err(PlanError::TooManyWaypoints { max: MAX_WAYPOINTS })
+        );
+        assert_eq!(
+            plan_through(0.0, &[wp(0.1, Some(0.2)), wp(0.2, None)], None, &none, &l),
+            Err(PlanError::MixedTimes)
+        );
+        assert_eq!(
+            plan_through(0.0, &[wp(0.1, Some(0.2))], Some(0.3), &none, &l),
+            Err(PlanError::MixedTimes)
+        );
+        assert_eq!(
+            plan_through(
+                0.0,
+                &[wp(0.1, Some(0.3)), wp(0.2, Some(0.3))],
+                None,
+                &none,
+                &l
+            ),
+            Err(PlanError::TimesNotIncreasing)
+        );
+        // A waypoint at the start is a zero-length segment with its own minimum time.
+        assert!(plan_through(0.0, &[wp(0.0, None), wp(0.5, None)], None, &none, &l).is_ok());
+        let bad = Limits {
+            torque_fraction: 0.0,
+            ..l
+        };
+        assert_eq!(
+            plan_move(0.0, 0.1, None, &none, &bad),
+            Err(PlanError::BadLimits)
+        );
+        // Fast to 178 deg, then slowly on to 179: the spline carries its speed past 180 deg
+        // (at any time scale, so the range is the reason, not the speed).
+        let over = [wp(178.0 * DEG, Some(0.2)), wp(179.0 * DEG, Some(1.0))];
+        assert!(matches!(
+            plan_through(0.0, &over, None, &none, &l),
+            Err(PlanError::OutOfRange { .. })
+        ));
+    }
+
+    #[test]
+    fn a_shaped_plan_is_the_impulse_sum_of_the_base_move() {
+        let l = limits();
+        let zvd = Shaper {
+            kind: ShaperKind::Zvd,
+            freq_hz: 5.0,
+            damping: 0.05,
+            tolerance: 0.05,
+        };
+        let base = plan_move(0.0, 1.0, Some(0.3), &Shaper::NONE, &l).unwrap();
+        let shaped = plan_move(0.0, 1.0, Some(0.3), &zvd, &l).unwrap();
+        let imp = zvd.impulses().unwrap();
+        assert!((shaped.duration_s() as f64 - (0.3 + imp.duration_s())).abs() < 1e-5);
+        for k in 0..=100 {
+            let t = k as f32 * shaped.duration_s() / 100.0;
+            let sum: f64 = imp
+                .iter()
+                .map(|(a, ti)| a * base.eval(t - ti as f32).pos as f64)
+                .sum();
+            assert!((shaped.eval(t).pos as f64 - sum).abs() < 1e-5, "t {t}");
+        }
+        // Averaging cannot raise the peaks.
+        let (pb, ps) = (base.peaks(), shaped.peaks());
+        assert!(ps.max_abs_acc <= pb.max_abs_acc * 1.001);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+        /// For any target, waypoints and time, the planner returns a spline within the
+        /// limits, checked here by dense sampling independent of `peaks`, or a refusal.
+        #[test]
+        fn a_plan_keeps_the_limits_or_is_refused(
+            from in -3.3f32..3.3,
+            targets in proptest::collection::vec(-3.3f32..3.3, 1..=MAX_WAYPOINTS),
+            time in proptest::option::of(0.01f32..2.0),
+            gaps in proptest::option::of(proptest::collection::vec(0.0005f32..0.6, MAX_WAYPOINTS)),
+            fraction in 0.2f32..1.0,
+            shaped in any::<bool>(),
+        ) {
+            let l = Limits { torque_fraction: fraction, ..limits() };
+            // With gaps, every waypoint has its time and the move none.
+            let mut at = 0.0;
+            let waypoints: heapless::Vec<Waypoint, MAX_WAYPOINTS> = targets
+                .iter()
+                .enumerate()
+                .map(|(i, &rad)| Waypoint {
+                    rad,
+                    at_s: gaps.as_ref().map(|g| {
+                        at += g[i];
+                        at
+                    }),
+                })
+                .collect();
+            let time = if gaps.is_some() { None } else { time };
+            let shaper = if shaped {
+                Shaper { kind: ShaperKind::Zvd, freq_hz: 4.8, damping: 0.07, tolerance: 0.05 }
+            } else {
+                Shaper::NONE
+            };
+            match plan_through(from, &waypoints, time, &shaper, &l) {
+                Ok(plan) => {
+                    let in_range = |x: f32| x >= l.min_rad && x <= l.max_rad;
+                    prop_assert!(in_range(from) && targets.iter().all(|&t| in_range(t)));
+                    let steps = 20_000;
+                    for k in 0..=steps {
+                        let r = plan.eval(k as f32 * plan.duration_s() / steps as f32);
+                        let torque = l.inertia_kgm2 * r.acc.abs() + l.coulomb_nm
+                            + l.viscous_nms * r.vel.abs();
+                        prop_assert!(torque <= l.torque_budget_nm() * 1.0001, "torque {torque}");
+                        prop_assert!(r.vel.abs() <= l.max_speed_rad_s * 1.0001);
+                        prop_assert!(in_range(r.pos));
+                    }
+                    prop_assert_eq!(plan.start(), from);
+                    prop_assert_eq!(plan.end(), *targets.last().unwrap());
+                    if let (Some(t), false) = (time, shaped) {
+                        prop_assert!((plan.duration_s() - t).abs() < 1e-4);
+                    }
+                }
+                Err(PlanError::TooFast { needs_s }) => {
+                    let t = time.unwrap_or(at);
+                    prop_assert!(needs_s > t, "needs {needs_s}, given {t}");
+                    // The time it names works (the waypoints' own times, uniformly slowed).
+                    let slowed: heapless::Vec<Waypoint, MAX_WAYPOINTS> = waypoints
+                        .iter()
+                        .map(|w| Waypoint { rad: w.rad, at_s: w.at_s.map(|a| a * (needs_s / at)) })
+                        .collect();
+                    let again = if gaps.is_some() {
+                        plan_through(from, &slowed, None, &shaper, &l)
+                    } else {
+                        plan_through(from, &waypoints, Some(needs_s), &shaper, &l)
+                    };
+                    prop_assert!(again.is_ok(), "{again:?}");
+                }
+                Err(PlanError::OutOfRange { .. }) => {}
+                Err(PlanError::TimesNotIncreasing) => {
+                    prop_assert!(gaps.is_some_and(|g| g.iter().any(|&x| x < 1e-3)));
+                }
+                Err(e) => prop_assert!(false, "unexpected refusal {e:?}"),
+            }
+        }
+    }
+}
