@@ -20,13 +20,15 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
+pub mod command;
+
 pub use beam_kinds::LawKind;
 use serde::{Deserialize, Serialize};
 
 /// Protocol version; bumped whenever a message changes.
 pub const VERSION: u8 = 1;
 /// Largest payload, bytes.
-pub const MAX_PAYLOAD: usize = 48;
+pub const MAX_PAYLOAD: usize = 96;
 /// Largest frame before COBS: version, length, payload, CRC.
 pub const MAX_RAW: usize = 2 + MAX_PAYLOAD + 4;
 /// Largest encoded frame, excluding the zero delimiter.

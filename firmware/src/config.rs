@@ -4,11 +4,11 @@
 //! the drive never enables the amplifier. The gains come from the table compiled from
 //! `gains.toml` (model-core's `GAIN_TABLE`), scheduled on the payload.
 
-use model_core::gains::{schedule, schedule_shaper, GAIN_TABLE};
+use model_core::gains::{schedule_shaper, GAIN_TABLE};
 use model_core::shaper::shaped_quintic;
 use model_core::{
     Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind,
-    ModalModel, ModelError, ParamError, PdGains, ShaperError, Spline, Timing,
+    ModalModel, ModelError, ParamError, ShaperError, Spline, Timing,
 };
 
 /// Knots per move: the paper's moves are single quintic segments.
@@ -21,10 +21,7 @@ pub const CONTROLLER: LawKind = LawKind::Smc;
 /// The law `kind` for `payload_kg`: the compiled table's rows interpolated on the payload, or
 /// for PD without rows, the baseline gains. `None` if the table has no row for an SMC.
 pub fn law_for(kind: LawKind, payload_kg: f32) -> Option<Law> {
-    schedule(GAIN_TABLE, kind, payload_kg).or(match kind {
-        LawKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
-        LawKind::Smc | LawKind::SmcStrain | LawKind::PdFf | LawKind::SmcI => None,
-    })
+    model_core::gains::law_for(GAIN_TABLE, kind, payload_kg)
 }
 
 /// The paper's slew: -90 deg to +90 deg in 0.35 s, and back (model-core's `paper_slew`).

@@ -8,6 +8,7 @@
 //! calibration, sweeps, the PIL host) live in `beam-tools`.
 #![forbid(unsafe_code)]
 
+pub mod commanded;
 pub mod decimal;
 pub mod metrics;
 pub mod plant;

@@ -213,6 +213,7 @@ impl Motion {
         waypoints[n - 1].rad = self.to_rad;
         let time = (!self.shortest).then_some(self.time_s);
         plan_through(self.from_rad, &waypoints[..n], time, &self.shaper, limits)
+            .map(|plan| plan.shaped)
             .map_err(SimError::Plan)
     }
 }

@@ -219,6 +219,9 @@ struct State {
     stall_ticks: u32,
     /// The law's own state (smc-i's integral), zeroed when a move starts.
     law_state: LawState,
+    /// The last tick's hub angle and root strain (for status and for planning the next move).
+    theta: f32,
+    strain: f32,
 }
 
 /// Ticks without an encoder count under substantial torque before [`FaultFlags::ENCODER_STUCK`].
@@ -367,6 +370,48 @@ impl<const K: usize> Controller<K> {
         Ok(())
     }
 
+    /// Replaces the running move, whole, by `spline`, on the same clock: the next tick
+    /// evaluates it where it would have evaluated the old one. For a stop, whose spline
+    /// equals the old one up to now. Refused unless slewing.
+    pub fn replace_move(&mut self, spline: Spline<K>) -> Result<(), CommandError> {
+        if self.st.mode != Mode::Slewing {
+            return Err(CommandError::NotMoving);
+        }
+        self.cfg.spline = spline;
+        Ok(())
+    }
+
+    /// Torque off now: back to `Idle` (a latched fault stays latched).
+    pub fn disable(&mut self) {
+        if self.st.mode != Mode::Fault {
+            self.st.mode = Mode::Idle;
+        }
+        self.st.start_pending = false;
+    }
+
+    /// The hub angle measured by the last tick, rad.
+    pub fn theta_rad(&self) -> f32 {
+        self.st.theta
+    }
+
+    /// The hub rate (filtered) of the last tick, rad/s.
+    pub fn omega_rad_s(&self) -> f32 {
+        self.st.omega
+    }
+
+    /// The root strain (offset removed) of the last tick.
+    pub fn strain(&self) -> f32 {
+        self.st.strain
+    }
+
+    /// Time into the move, s (0 when idle or faulted).
+    pub fn move_elapsed_s(&self) -> f32 {
+        match self.st.mode {
+            Mode::Slewing | Mode::Holding => self.st.ticks as f32 * self.cfg.settings.ts_s,
+            Mode::Idle | Mode::Fault => 0.0,
+        }
+    }
+
     /// The current mode.
     pub fn mode(&self) -> Mode {
         self.st.mode
@@ -407,6 +452,8 @@ impl<const K: usize> Controller<K> {
             strain,
             strain_rate,
         };
+        self.st.theta = x.theta;
+        self.st.strain = strain;
         faults.insert(self.detect_faults(raw, &x));
         if !faults.is_empty() {
             self.st.faults.insert(faults);

@@ -143,6 +143,8 @@ pub enum CommandError {
     Faulted,
     /// A move is already running.
     Busy,
+    /// No move is running (nothing to stop).
+    NotMoving,
 }
 
 /// Why a move was not planned. The drive refuses it and keeps what it was doing.
@@ -251,6 +253,7 @@ impl fmt::Display for CommandError {
         f.write_str(match self {
             CommandError::Faulted => "a fault is latched: clear it first",
             CommandError::Busy => "a move is running",
+            CommandError::NotMoving => "no move is running",
         })
     }
 }

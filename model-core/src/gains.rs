@@ -41,6 +41,15 @@ pub fn schedule(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law
     Some(below.law)
 }
 
+/// The law `kind` for `payload_kg` from `table` ([`schedule`]), or for PD without rows the
+/// baseline gains. `None` if the table has no row for any other law.
+pub fn law_for(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law> {
+    schedule(table, kind, payload_kg).or(match kind {
+        LawKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
+        LawKind::Smc | LawKind::SmcStrain | LawKind::PdFf | LawKind::SmcI => None,
+    })
+}
+
 /// The input shaper of law `kind` at `payload_kg`: its rows' shaper, frequency and damping
 /// interpolated like the gains. No shaping without rows.
 pub fn schedule_shaper(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Shaper {

@@ -59,6 +59,7 @@
 #![forbid(unsafe_code)]
 
 pub mod beam;
+pub mod commands;
 pub mod controller;
 pub mod error;
 pub mod gains;

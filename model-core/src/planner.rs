@@ -29,8 +29,12 @@ pub const MIN_SEGMENT_S: f64 = 1e-3;
 /// Knots of an unshaped planned move: the start and the waypoints.
 pub const PLAN_KNOTS: usize = MAX_WAYPOINTS + 1;
 
-/// Knots of a shaped planned move: every knot shifted by each of the shaper's impulses.
-pub const SHAPED_PLAN_KNOTS: usize = PLAN_KNOTS * crate::shaper::MAX_IMPULSES;
+/// Knots of a planned move's base (unshaped) spline: the start, the waypoints, and room for
+/// the one more knot a stop adds (see [`plan_stop`]).
+pub const BASE_KNOTS: usize = PLAN_KNOTS + 1;
+
+/// Knots of a shaped planned move: every base knot shifted by each of the shaper's impulses.
+pub const SHAPED_PLAN_KNOTS: usize = BASE_KNOTS * crate::shaper::MAX_IMPULSES;
 
 /// What a planned move must keep to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,6 +157,32 @@ pub struct Waypoint {
 /// A planned move, ready to swap into the controller whole.
 pub type PlannedMove = Spline<SHAPED_PLAN_KNOTS>;
 
+/// A planned move and the unshaped move it was shaped from (which a stop needs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// The reference the controller tracks: `base` shaped.
+    pub shaped: PlannedMove,
+    /// The move before shaping.
+    pub base: Spline<BASE_KNOTS>,
+    /// The shaper applied.
+    pub shaper: Shaper,
+}
+
+impl Plan {
+    fn new(base: Spline<BASE_KNOTS>, shaper: &Shaper) -> Result<Self, PlanError> {
+        let shaped = if shaper.kind == ShaperKind::None {
+            Spline::try_from_states(&base.states::<BASE_KNOTS>())?
+        } else {
+            shape(&base, shaper)?
+        };
+        Ok(Self {
+            shaped,
+            base,
+            shaper: *shaper,
+        })
+    }
+}
+
 /// The move from `from` to `to`: a minimum-jerk quintic lasting `time_s` (or the shortest
 /// the limits allow), shaped by `shaper` (which adds its length).
 pub fn plan_move(
@@ -161,7 +191,7 @@ pub fn plan_move(
     time_s: Option<f32>,
     shaper: &Shaper,
     limits: &Limits,
-) -> Result<PlannedMove, PlanError> {
+) -> Result<Plan, PlanError> {
     let target = Waypoint {
         rad: to,
         at_s: None,
@@ -179,7 +209,7 @@ pub fn plan_through(
     time_s: Option<f32>,
     shaper: &Shaper,
     limits: &Limits,
-) -> Result<PlannedMove, PlanError> {
+) -> Result<Plan, PlanError> {
     limits.check()?;
     if waypoints.is_empty() {
         return Err(PlanError::NoWaypoints);
@@ -226,16 +256,12 @@ pub fn plan_through(
     if !(min_gap >= MIN_SEGMENT_S) {
         return Err(PlanError::TimesNotIncreasing);
     }
-    let build = |scale: f64| -> Result<PlannedMove, PlanError> {
+    let build = |scale: f64| -> Result<Plan, PlanError> {
         let mut knots = [(0.0f32, 0.0f32); PLAN_KNOTS];
         for (k, (&t, &p)) in knots.iter_mut().zip(times.iter().zip(positions.iter())) {
             *k = ((t * scale) as f32, p);
         }
-        if shaper.kind == ShaperKind::None {
-            return Ok(Spline::try_build(&knots[..n])?);
-        }
-        let base: Spline<PLAN_KNOTS> = Spline::try_build(&knots[..n])?;
-        Ok(shape(&base, shaper)?)
+        Plan::new(Spline::try_build(&knots[..n])?, shaper)
     };
     // The scale the limits need, from the unshaped plan at scale 1 (shaping with positive
     // impulses only averages the reference, so it cannot raise the peaks; the check below
@@ -256,13 +282,13 @@ pub fn plan_through(
     let least = limits.least_scale(&trial).max(MIN_SEGMENT_S / min_gap);
     // The shortest whole-millisecond end time at or above the least scale that passes the
     // check (f32 rounding can cost a millisecond).
-    let shortest = || -> Result<(f64, PlannedMove), PlanError> {
+    let shortest = || -> Result<(f64, Plan), PlanError> {
         // A margin of 0.1 % keeps the plan off the bound's edge, where f32 rounding of the
         // rebuilt spline could tip it over.
         let mut end_ms = libm::ceil(least * 1.001 * end * 1000.0).max(1.0);
         for _ in 0..64 {
             let plan = build(end_ms / 1000.0 / end)?;
-            if limits.admits(&plan.peaks()) {
+            if limits.admits(&plan.shaped.peaks()) {
                 return Ok((end_ms / 1000.0, plan));
             }
             end_ms = libm::ceil(end_ms * 1.01);
@@ -277,7 +303,7 @@ pub fn plan_through(
     };
     if scale * min_gap >= MIN_SEGMENT_S {
         let plan = build(scale)?;
-        let peaks = plan.peaks();
+        let peaks = plan.shaped.peaks();
         if limits.admits(&peaks) {
             return Ok(plan);
         }
@@ -318,6 +344,59 @@ fn out_of_range(p: &Peaks, limits: &Limits) -> Result<(), PlanError> {
     })
 }
 
+/// Stops `plan` at `at_s` (time since its start): its base move is kept up to `at_s` and
+/// then brought to rest by a quintic from its state there (position, speed, acceleration) to
+/// where an even deceleration would end, `pos + vel T / 2`, as short as the torque and speed
+/// limits allow; the result is shaped again. The shaped reference is unchanged before
+/// `at_s` (every shifted copy of the base is still on its old course there) and C2 through
+/// it, and the stop is shaped like the move, so it excites the shaped mode no more than the
+/// move would have. The range is not checked: a stop is never refused for it. A plan whose
+/// base has ended, or that could not stop short of its target, is returned unchanged (its
+/// own end is then the quickest stop).
+pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanError> {
+    limits.check()?;
+    if !at_s.is_finite() {
+        return Err(PlanError::NonFinite);
+    }
+    let base = &plan.base;
+    if at_s >= base.duration_s() {
+        return Ok(plan.clone());
+    }
+    let at = at_s.max(0.0);
+    let r = base.eval(at);
+    let decel = (limits.torque_budget_nm() - limits.coulomb_nm) / limits.inertia_kgm2;
+    let mut t = (2.0 * libm::fabsf(r.vel) / decel).max(10.0 * MIN_SEGMENT_S as f32);
+    let states = base.states::<BASE_KNOTS>();
+    let kept = base.knot_times().take_while(|&k| k < at).count();
+    while t < 60.0 {
+        let t_ms = libm::ceilf(t * 1000.0) / 1000.0;
+        let end = r.pos + r.vel * t_ms / 2.0;
+        if (end - base.end()) * r.vel > 0.0 {
+            // Too late to stop short of the target: the move's own end is the stop.
+            return Ok(plan.clone());
+        }
+        let mut cut = [(0.0f32, 0.0f32, 0.0f32, 0.0f32); BASE_KNOTS + 1];
+        cut[..kept].copy_from_slice(&states[..kept]);
+        let mut n = kept;
+        if n == 0 || cut[n - 1].0 < at {
+            cut[n] = (at, r.pos, r.vel, r.acc);
+            n += 1;
+        }
+        cut[n] = (at + t_ms, end, 0.0, 0.0);
+        n += 1;
+        // The cut base has at most the base's knots before `at`, `at` and the stop's end.
+        let stopped = Spline::<BASE_KNOTS>::try_from_states(&cut[..n])?;
+        let p = stopped.peaks();
+        if limits.planned_torque_nm(&p) <= limits.torque_budget_nm()
+            && p.max_abs_vel <= limits.max_speed_rad_s.max(libm::fabsf(r.vel))
+        {
+            return Plan::new(stopped, &plan.shaper);
+        }
+        t *= 1.1;
+    }
+    Err(PlanError::Unplannable)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -338,7 +417,7 @@ mod tests {
         // solves I a + b v + C = F with both peaks taken together (a safe bound).
         let l = limits();
         let d = 90.0 * DEG;
-        let plan = plan_move(0.0, d, None, &Shaper::NONE, &l).unwrap();
+        let plan = plan_move(0.0, d, None, &Shaper::NONE, &l).unwrap().shaped;
         let t = plan.duration_s() as f64;
         let (i, b, c, f) = (
             l.inertia_kgm2 as f64,
@@ -362,12 +441,15 @@ mod tests {
     #[test]
     fn the_papers_slew_fits_the_default_limits_and_a_faster_one_is_refused() {
         let l = limits();
-        let paper = plan_move(-90.0 * DEG, 90.0 * DEG, Some(0.35), &Shaper::NONE, &l).unwrap();
+        let paper = plan_move(-90.0 * DEG, 90.0 * DEG, Some(0.35), &Shaper::NONE, &l)
+            .unwrap()
+            .shaped;
         assert_eq!(paper.duration_s(), 0.35);
         match plan_move(-90.0 * DEG, 90.0 * DEG, Some(0.1), &Shaper::NONE, &l) {
             Err(PlanError::TooFast { needs_s }) => {
                 let shortest = plan_move(-90.0 * DEG, 90.0 * DEG, None, &Shaper::NONE, &l)
                     .unwrap()
+                    .shaped
                     .duration_s();
                 assert_eq!(needs_s, shortest);
                 assert!(needs_s > 0.1 && needs_s < 0.35, "{needs_s}");
@@ -451,8 +533,10 @@ mod tests {
             damping: 0.05,
             tolerance: 0.05,
         };
-        let base = plan_move(0.0, 1.0, Some(0.3), &Shaper::NONE, &l).unwrap();
-        let shaped = plan_move(0.0, 1.0, Some(0.3), &zvd, &l).unwrap();
+        let base = plan_move(0.0, 1.0, Some(0.3), &Shaper::NONE, &l)
+            .unwrap()
+            .shaped;
+        let shaped = plan_move(0.0, 1.0, Some(0.3), &zvd, &l).unwrap().shaped;
         let imp = zvd.impulses().unwrap();
         assert!((shaped.duration_s() as f64 - (0.3 + imp.duration_s())).abs() < 1e-5);
         for k in 0..=100 {
@@ -466,6 +550,40 @@ mod tests {
         // Averaging cannot raise the peaks.
         let (pb, ps) = (base.peaks(), shaped.peaks());
         assert!(ps.max_abs_acc <= pb.max_abs_acc * 1.001);
+    }
+
+    #[test]
+    fn a_stop_keeps_the_move_up_to_its_time_then_comes_to_rest_within_the_limits() {
+        let l = limits();
+        let zvd = Shaper {
+            kind: ShaperKind::Zvd,
+            freq_hz: 4.8,
+            damping: 0.07,
+            tolerance: 0.05,
+        };
+        let plan = plan_move(-90.0 * DEG, 90.0 * DEG, None, &zvd, &l).unwrap();
+        let at = 0.08;
+        let stopped = plan_stop(&plan, at, &l).unwrap();
+        // Unchanged before the stop (every shifted copy of the base is on its old course).
+        for k in 0..80 {
+            let t = k as f32 * 1e-3;
+            let (a, b) = (plan.shaped.eval(t), stopped.shaped.eval(t));
+            assert!(
+                (a.pos - b.pos).abs() < 1e-5 && (a.vel - b.vel).abs() < 1e-3,
+                "t {t}"
+            );
+        }
+        // It ends at rest short of the target, inside the limits, and no sooner than the
+        // shaper's length after the stop (the stop is shaped too).
+        let s = &stopped.shaped;
+        assert!(s.end() < 90.0 * DEG && s.end() > -90.0 * DEG, "{}", s.end());
+        assert!(l.admits(&s.peaks()) || s.peaks().max_pos > l.max_rad);
+        let len = zvd.impulses().unwrap().duration_s() as f32;
+        assert!(s.duration_s() >= at + len, "{}", s.duration_s());
+        assert!(s.duration_s() < plan.shaped.duration_s());
+        // Too late to stop short of the target: the move itself is the stop.
+        let late = plan_stop(&plan, plan.base.duration_s() * 0.9, &l).unwrap();
+        assert_eq!(late, plan);
     }
 
     proptest! {
@@ -503,6 +621,7 @@ mod tests {
             };
             match plan_through(from, &waypoints, time, &shaper, &l) {
                 Ok(plan) => {
+                    let plan = plan.shaped;
                     let in_range = |x: f32| x >= l.min_rad && x <= l.max_rad;
                     prop_assert!(in_range(from) && targets.iter().all(|&t| in_range(t)));
                     let steps = 20_000;

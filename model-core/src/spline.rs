@@ -151,9 +151,10 @@ impl<const K: usize> Spline<K> {
     }
 
     /// Position, velocity and acceleration at `t_s` seconds after the start of the move,
-    /// held at rest outside [0, duration]. A NaN time gives the start point.
+    /// held at rest before 0 and after the duration. A NaN time gives the start point. (A
+    /// move that starts in motion, a stop, has its speed at t = 0.)
     pub fn eval(&self, t_s: f32) -> RefPoint {
-        if !(t_s > 0.0) {
+        if !(t_s >= 0.0) {
             return RefPoint {
                 pos: self.start,
                 vel: 0.0,
@@ -221,6 +222,20 @@ impl<const K: usize> Spline<K> {
             .iter()
             .map(|s| s.t0_s)
             .chain(core::iter::once(self.duration_s))
+    }
+
+    /// The knots as states `(time, position, velocity, acceleration)`: what
+    /// [`Spline::try_from_states`] rebuilds this spline from (into any capacity `M` that
+    /// holds its knots; extra knots are dropped).
+    pub fn states<const M: usize>(&self) -> Vec<(f32, f32, f32, f32), M> {
+        let mut out = Vec::new();
+        for t in self.knot_times() {
+            let r = self.eval(t);
+            if out.push((t, r.pos, r.vel, r.acc)).is_err() {
+                break;
+            }
+        }
+        out
     }
 
     /// Bounds on the reference over the whole move, safe upper bounds (not samples): the

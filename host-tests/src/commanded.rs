@@ -1,0 +1,231 @@
+//! A commanded drive against the simulated beam: a script of wire-protocol commands, sent
+//! between ticks as the board's link task would, carried out by model-core's command handler
+//! on the same controller the firmware runs.
+
+use crate::plant::{Plant, State};
+use crate::sensors::{SensorConfig, Sensors};
+use crate::sim::{settings_for, Integrator, SimError};
+use beam_wire::command::{Command, Outcome, Reply, Request};
+use model_core::commands::{CommandedController, Commander};
+use model_core::{BeamParams, Controller, LawKind, ModalModel, Mode, Spline};
+
+/// One step of a script.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Step {
+    /// Send a command before the next tick.
+    Send(Command),
+    /// Let this many seconds of ticks pass.
+    Wait(f64),
+    /// Tick until the move is over (the controller holds, or is idle or faulted), then
+    /// `settle_s` more; at most `max_s` in all.
+    UntilDone {
+        /// Ticks after the move's end, s.
+        settle_s: f64,
+        /// Give up after this long, s.
+        max_s: f64,
+    },
+    /// Assert the amplifier's fault line for this many ticks.
+    AmpFault(u32),
+    /// Change the payload the beam really carries, kg (attached at rest: the state carries
+    /// over; tell the drive with `SetPayload`).
+    Attach(f64),
+}
+
+/// A command, when it was sent, and the drive's answer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Exchange {
+    /// Time of the tick it preceded, s from the start of the run.
+    pub t: f64,
+    /// What was sent.
+    pub request: Request,
+    /// What came back.
+    pub reply: Reply,
+}
+
+/// One tick of a commanded run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tick {
+    /// Time, s from the start of the run.
+    pub t: f64,
+    /// True hub angle, rad.
+    pub theta: f64,
+    /// True root strain.
+    pub root_strain: f64,
+    /// Torque commanded, N m (bit for bit what the controller returned).
+    pub torque_nm: f32,
+    /// Controller mode after the tick.
+    pub mode: Mode,
+}
+
+/// What a commanded run produced.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CommandedRun {
+    /// Every tick.
+    pub ticks: Vec<Tick>,
+    /// Every command and its reply, in order.
+    pub exchanges: Vec<Exchange>,
+}
+
+impl CommandedRun {
+    /// For each accepted move (a `Moving` reply), the time its planned spline ends, s.
+    pub fn move_ends(&self) -> Vec<f64> {
+        self.exchanges
+            .iter()
+            .filter_map(|e| match e.reply.outcome {
+                Outcome::Moving { duration_s } => Some(e.t + duration_s as f64),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The true hub angle at time `t` (the last tick at or before it), rad.
+    pub fn theta_at(&self, t: f64) -> Option<f64> {
+        self.ticks
+            .iter()
+            .rev()
+            .find(|k| k.t <= t + 1e-9)
+            .map(|k| k.theta)
+    }
+
+    /// RMS true root strain over `[from, to]`, microstrain.
+    pub fn rms_strain_ue(&self, from: f64, to: f64) -> Option<f64> {
+        let w: Vec<f64> = self
+            .ticks
+            .iter()
+            .filter(|k| k.t >= from - 1e-9 && k.t <= to + 1e-9)
+            .map(|k| k.root_strain * 1e6)
+            .collect();
+        (!w.is_empty()).then(|| (w.iter().map(|x| x * x).sum::<f64>() / w.len() as f64).sqrt())
+    }
+}
+
+/// Runs `script` against the beam `plant`, the drive running `kind` on the nominal `drive`
+/// beam (its payload is the drive's initial setting), from rest at `home_rad`.
+pub fn run_commands<const N: usize>(
+    plant: BeamParams,
+    drive: BeamParams,
+    kind: LawKind,
+    home_rad: f32,
+    script: &[Step],
+    sensors: SensorConfig,
+) -> Result<CommandedRun, SimError> {
+    let table = model_core::gains::GAIN_TABLE;
+    let (mut commander, law) =
+        Commander::<N>::try_new(drive, table, kind, drive.tip_mass_kg as f32)
+            .map_err(|e| SimError::Drive(Box::new(e)))?;
+    let nominal = ModalModel::<N>::try_build(&model_core::Beam::try_build(drive)?)?;
+    let settings = model_core::ControllerSettings {
+        theta_home_rad: home_rad,
+        ..settings_for(&nominal, &sensors)
+    };
+    // Idle at home: a zero-length move there until the first command plans a real one.
+    let rest = Spline::try_build(&[(0.0, home_rad), (1.0, home_rad)]).map_err(SimError::Spline)?;
+    let mut ctl: CommandedController =
+        Controller::try_build(settings, law, rest).map_err(SimError::Config)?;
+    let build = |params: BeamParams| -> Result<Plant<N>, SimError> {
+        Ok(Plant::new(ModalModel::<N>::try_build(
+            &model_core::Beam::try_build(params)?,
+        )?))
+    };
+    let mut plant_now = build(plant)?;
+    let ts = crate::decimal::f32_decimal(settings.ts_s);
+    let mut sens = Sensors::new(sensors, home_rad as f64);
+    let mut x = State::<N>::at_rest(home_rad as f64);
+    let mut run = CommandedRun::default();
+    let mut seq: u16 = 0;
+    let mut k: usize = 0;
+    let mut amp_fault_ticks = 0u32;
+    let tick = |plant: &Plant<N>,
+                x: &mut State<N>,
+                ctl: &mut CommandedController,
+                sens: &mut Sensors,
+                amp_fault: bool,
+                run: &mut CommandedRun,
+                k: &mut usize|
+     -> Result<(), SimError> {
+        let t = crate::decimal::tick_time(*k, ts);
+        let raw = sens.read(x.theta, plant.outputs(x).root_strain, amp_fault);
+        let cmd = ctl.step(&raw);
+        run.ticks.push(Tick {
+            t,
+            theta: x.theta,
+            root_strain: plant.outputs(x).root_strain,
+            torque_nm: cmd.torque_nm,
+            mode: cmd.mode,
+        });
+        let tau = plant.saturate(cmd.torque_nm as f64);
+        let Integrator::Rk4 { substeps } = Integrator::default() else {
+            unreachable!("the default integrator is RK4")
+        };
+        let h = ts / substeps as f64;
+        *x = (0..substeps).fold(*x, |x, _| plant.rk4_step(&x, tau, h));
+        plant.check_validity(x).map_err(|why| {
+            SimError::Drive(format!("the beam left the model at {t} s: {why}").into())
+        })?;
+        *k += 1;
+        Ok(())
+    };
+    // Let the strain offset settle before the first command, as after power-up.
+    for _ in 0..50 {
+        tick(
+            &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+        )?;
+    }
+    for step in script {
+        match step {
+            Step::Send(command) => {
+                seq = seq.wrapping_add(1).max(1);
+                let request = Request {
+                    seq,
+                    command: command.clone(),
+                };
+                let reply = commander.handle(&mut ctl, &request);
+                run.exchanges.push(Exchange {
+                    t: crate::decimal::tick_time(k, ts),
+                    request,
+                    reply,
+                });
+            }
+            Step::Wait(s) => {
+                let n = (s / ts).round() as usize;
+                for _ in 0..n {
+                    let fault = amp_fault_ticks > 0;
+                    amp_fault_ticks = amp_fault_ticks.saturating_sub(1);
+                    tick(
+                        &plant_now, &mut x, &mut ctl, &mut sens, fault, &mut run, &mut k,
+                    )?;
+                }
+            }
+            Step::UntilDone { settle_s, max_s } => {
+                let limit = (max_s / ts).round() as usize;
+                // One tick first: a move just commanded starts on the next tick.
+                tick(
+                    &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+                )?;
+                let mut n = 1;
+                while ctl.mode() == Mode::Slewing {
+                    if n >= limit {
+                        return Err(SimError::Option("a move did not end within its wait"));
+                    }
+                    tick(
+                        &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+                    )?;
+                    n += 1;
+                }
+                for _ in 0..(settle_s / ts).round() as usize {
+                    tick(
+                        &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+                    )?;
+                }
+            }
+            Step::AmpFault(n) => amp_fault_ticks = *n,
+            Step::Attach(kg) => {
+                plant_now = build(BeamParams {
+                    tip_mass_kg: *kg,
+                    ..plant
+                })?;
+            }
+        }
+    }
+    Ok(run)
+}

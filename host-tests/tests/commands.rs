@@ -1,0 +1,259 @@
+//! The command protocol against the simulated beam: a session of moves, waypoints, a payload
+//! change, a stop and a fault, carried out by model-core's command handler.
+
+use beam_wire::command::{Command, Outcome, Refusal, Waypoint};
+use host_tests::commanded::{run_commands, CommandedRun, Step};
+use host_tests::sensors::SensorConfig;
+use model_core::{BeamParams, LawKind, Mode};
+
+const DEG: f32 = core::f32::consts::PI / 180.0;
+
+fn move_to(deg: f32) -> Step {
+    Step::Send(Command::MoveTo {
+        to_rad: deg * DEG,
+        time_s: None,
+    })
+}
+
+fn done() -> Step {
+    Step::UntilDone {
+        settle_s: 0.4,
+        max_s: 5.0,
+    }
+}
+
+fn session(kind: LawKind) -> CommandedRun {
+    let drive = BeamParams::aluminium();
+    let via = |deg: &[f32]| {
+        Step::Send(Command::MoveThrough {
+            waypoints: deg
+                .iter()
+                .map(|d| Waypoint {
+                    rad: d * DEG,
+                    at_s: None,
+                })
+                .collect(),
+            time_s: None,
+        })
+    };
+    let script = [
+        move_to(45.0),
+        Step::Wait(0.05),
+        Step::Send(Command::Status),
+        done(),
+        Step::Send(Command::Status),
+        via(&[10.0, -30.0]),
+        done(),
+        Step::Attach(0.025),
+        Step::Send(Command::SetPayload { kg: 0.025 }),
+        move_to(-90.0),
+        done(),
+        move_to(90.0),
+        done(),
+        // Stop mid-move: a planned stop to rest, then the hold.
+        move_to(-90.0),
+        Step::Wait(0.08),
+        Step::Send(Command::Stop),
+        done(),
+        Step::Send(Command::Status),
+        // An amplifier fault: torque off, moves refused until cleared.
+        Step::AmpFault(3),
+        Step::Wait(0.01),
+        move_to(0.0),
+        Step::Send(Command::ClearFault),
+        Step::Wait(0.3),
+        move_to(0.0),
+        done(),
+        Step::Send(Command::Status),
+    ];
+    run_commands::<3>(drive, drive, kind, 0.0, &script, SensorConfig::default()).unwrap()
+}
+
+#[test]
+fn a_session_of_commands_moves_the_beam_and_leaves_it_at_rest_after_each_move() {
+    let run = session(LawKind::PdFf);
+    let outcomes: Vec<Outcome> = run.exchanges.iter().map(|e| e.reply.outcome).collect();
+    // Each reply answers its request.
+    for e in &run.exchanges {
+        assert_eq!(e.reply.seq, e.request.seq);
+    }
+    let moving = |o: &Outcome| matches!(o, Outcome::Moving { .. });
+    assert!(moving(&outcomes[0]), "{:?}", outcomes[0]);
+    // Status during the first move: slewing, at the scheduled payload, the law in use.
+    match outcomes[1] {
+        Outcome::Status(s) => {
+            assert_eq!(s.mode, Mode::Slewing as u8);
+            assert_eq!(s.law, Some(LawKind::PdFf));
+            assert_eq!(s.payload_kg, 0.0);
+        }
+        other => panic!("{other:?}"),
+    }
+    // After it: holding, at 45 deg within 0.5 deg.
+    match outcomes[2] {
+        Outcome::Status(s) => {
+            assert_eq!(s.mode, Mode::Holding as u8);
+            assert!(
+                (s.theta_rad / DEG - 45.0).abs() < 0.5,
+                "{}",
+                s.theta_rad / DEG
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(moving(&outcomes[3]));
+    assert_eq!(outcomes[4], Outcome::Done); // payload
+                                            // Each completed move ends at its target with the beam at rest: the hub within 0.5 deg
+                                            // 0.25 s after the planned end, and the residual vibration (RMS root strain over
+                                            // 0.05-0.25 s after it) under a tenth of the move's own peak strain (the shaper has
+                                            // cancelled most of what the move excited; unshaped, the residual is of the order of
+                                            // the peak).
+    let ends = run.move_ends();
+    let starts: Vec<f64> = run
+        .exchanges
+        .iter()
+        .filter(|e| moving(&e.reply.outcome))
+        .map(|e| e.t)
+        .collect();
+    let targets = [45.0, -30.0, -90.0, 90.0];
+    for ((end, start), target) in ends.iter().zip(&starts).zip(targets) {
+        let theta = run.theta_at(end + 0.25).unwrap() as f32 / DEG;
+        assert!((theta - target).abs() < 0.5, "target {target}: {theta} deg");
+        let rms = run.rms_strain_ue(end + 0.05, end + 0.25).unwrap();
+        let peak = run
+            .ticks
+            .iter()
+            .filter(|k| k.t >= *start && k.t <= *end)
+            .map(|k| (k.root_strain * 1e6).abs())
+            .fold(0.0, f64::max);
+        assert!(rms < 0.1 * peak, "target {target}: {rms} ue of {peak}");
+    }
+    // The stop: accepted mid-move, the beam comes to rest short of -90 deg.
+    let stop = run
+        .exchanges
+        .iter()
+        .position(|e| e.request.command == Command::Stop)
+        .unwrap();
+    assert!(moving(&outcomes[stop]), "{:?}", outcomes[stop]);
+    match outcomes[stop + 1] {
+        Outcome::Status(s) => {
+            assert_eq!(s.mode, Mode::Holding as u8);
+            let deg = s.theta_rad / DEG;
+            assert!(deg > -85.0 && deg < 90.0, "{deg}");
+            assert!(
+                s.omega_rad_s.abs() < 0.05,
+                "{s:?} {:?}",
+                &run.exchanges[stop]
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    // ... and quiet: the stop lasts two periods of the shaped mode, so it leaves less than a
+    // tenth of the peak strain the interrupted move had reached.
+    let (begun, stop_end) = (run.exchanges[stop - 1].t, ends[4]);
+    let rms = run.rms_strain_ue(stop_end + 0.05, stop_end + 0.25).unwrap();
+    let peak = run
+        .ticks
+        .iter()
+        .filter(|k| k.t >= begun && k.t <= stop_end)
+        .map(|k| (k.root_strain * 1e6).abs())
+        .fold(0.0, f64::max);
+    assert!(rms < 0.1 * peak, "after the stop: {rms} ue of {peak}");
+    // The fault: the move refused, cleared, the next move runs.
+    assert_eq!(
+        outcomes[stop + 2],
+        Outcome::Refused(Refusal::Faulted),
+        "{:?}",
+        &outcomes[stop..]
+    );
+    assert_eq!(outcomes[stop + 3], Outcome::Done);
+    assert!(moving(&outcomes[stop + 4]));
+    match outcomes[stop + 5] {
+        Outcome::Status(s) => {
+            assert_eq!(s.mode, Mode::Holding as u8);
+            assert_eq!(s.faults, 0);
+            assert!((s.theta_rad / DEG).abs() < 0.5);
+            assert_eq!(s.payload_kg, 0.025);
+        }
+        other => panic!("{other:?}"),
+    }
+    // The torque never left the drive's limit.
+    assert!(run.ticks.iter().all(|k| k.torque_nm.abs() <= 10.0));
+}
+
+#[test]
+fn every_refusal_leaves_the_drive_as_it_was() {
+    let drive = BeamParams::aluminium();
+    let script = [
+        // At rest: nothing to stop; a move too fast; out of range; a bad payload; bad times.
+        Step::Send(Command::Stop),
+        Step::Send(Command::MoveTo {
+            to_rad: 90.0 * DEG,
+            time_s: Some(0.05),
+        }),
+        Step::Send(Command::MoveTo {
+            to_rad: 270.0 * DEG,
+            time_s: None,
+        }),
+        Step::Send(Command::SetPayload { kg: f32::NAN }),
+        Step::Send(Command::SetPayload { kg: -0.1 }),
+        Step::Send(Command::MoveThrough {
+            waypoints: heapless::Vec::new(),
+            time_s: None,
+        }),
+        Step::Send(Command::MoveTo {
+            to_rad: f32::INFINITY,
+            time_s: None,
+        }),
+        Step::Wait(0.05),
+        Step::Send(Command::Status),
+        // Mid-move: another move and a payload change are refused (no queue).
+        move_to(30.0),
+        Step::Wait(0.05),
+        move_to(-30.0),
+        Step::Send(Command::SetPayload { kg: 0.01 }),
+        done(),
+        Step::Send(Command::Status),
+    ];
+    let run = run_commands::<3>(
+        drive,
+        drive,
+        LawKind::PdFf,
+        0.0,
+        &script,
+        SensorConfig::default(),
+    )
+    .unwrap();
+    let o: Vec<Outcome> = run.exchanges.iter().map(|e| e.reply.outcome).collect();
+    assert_eq!(o[0], Outcome::Refused(Refusal::NotMoving));
+    match o[1] {
+        // The closed form: 10/sqrt(3) * pi/2 / T^2 * Mtt = 6 N m at T = 0.2 s or so.
+        Outcome::Refused(Refusal::TooFast { needs_s }) => {
+            assert!(needs_s > 0.05 && needs_s < 0.3, "{needs_s}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(o[2], Outcome::Refused(Refusal::OutOfRange { .. })));
+    assert_eq!(o[3], Outcome::Refused(Refusal::BadArgument));
+    assert_eq!(o[4], Outcome::Refused(Refusal::BadArgument));
+    assert_eq!(o[5], Outcome::Refused(Refusal::BadArgument));
+    assert_eq!(o[6], Outcome::Refused(Refusal::BadArgument));
+    // None of it moved the hub or changed the payload.
+    match o[7] {
+        Outcome::Status(s) => {
+            assert_eq!(s.mode, Mode::Idle as u8);
+            assert_eq!(s.payload_kg, 0.0);
+            assert!(s.theta_rad.abs() < 0.01);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(o[8], Outcome::Moving { .. }));
+    assert_eq!(o[9], Outcome::Refused(Refusal::Busy));
+    assert_eq!(o[10], Outcome::Refused(Refusal::Busy));
+    match o[11] {
+        Outcome::Status(s) => {
+            assert!((s.theta_rad / DEG - 30.0).abs() < 0.5);
+            assert_eq!(s.payload_kg, 0.0);
+        }
+        other => panic!("{other:?}"),
+    }
+}

@@ -1,0 +1,291 @@
+//! The drive's command handler: what a [`Request`] of the wire protocol does to a running
+//! [`Controller`], once, for the firmware and for the host alike (docs/design.md, section 10).
+//!
+//! It runs outside the 1 kHz tick, between ticks (the board calls it from its lower-priority
+//! link task, and the tick only ever sees a finished, validated spline or law swapped in
+//! whole). Moves are planned by [`crate::planner`] from the hub's last measured angle with
+//! the drive's limits; gains and the shaper come from the compiled gain table, scheduled on
+//! the payload. The policy for a command that arrives mid-move is to refuse it
+//! ([`Refusal::Busy`]), except `Stop`, `Disable`, `Status` and `Stream`: nothing queues.
+
+use crate::beam::{Beam, BeamParams, ParamError};
+use crate::controller::{Controller, Mode};
+use crate::error::{CommandError, PlanError};
+use crate::gains::{law_for, schedule_shaper, GainRow};
+use crate::law::{ControlLaw, LawKind};
+use crate::modal::{ModalModel, ModelError};
+use crate::planner::{plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS};
+use crate::shaper::Shaper;
+pub use beam_wire::command::{Command, Outcome, Refusal, Reply, Request, Status};
+use core::fmt;
+
+/// Heaviest payload the drive accepts, kg (the gain table's own limit).
+pub const MAX_PAYLOAD_KG: f32 = 1.0;
+
+/// The controller a commanded drive runs: its moves are planned, shaped moves.
+pub type CommandedController = Controller<SHAPED_PLAN_KNOTS>;
+
+/// Why the drive's configuration could not be built for a payload.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SetupError {
+    /// The beam parameters (with the payload) are invalid.
+    Beam(ParamError),
+    /// The modal model could not be built.
+    Model(ModelError),
+    /// The gain table has no row for the law.
+    NoGains,
+    /// The scheduled gains are invalid for the model.
+    Gains(ParamError),
+}
+
+impl fmt::Display for SetupError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SetupError::Beam(e) => write!(f, "beam: {e}"),
+            SetupError::Model(e) => write!(f, "model: {e}"),
+            SetupError::NoGains => f.write_str("the gain table has no row for the law"),
+            SetupError::Gains(e) => write!(f, "gains: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for SetupError {}
+
+/// What the handler keeps between commands: the beam without payload, the table, the law,
+/// and what is scheduled for the present payload.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Commander<const N: usize> {
+    base: BeamParams,
+    table: &'static [GainRow],
+    kind: LawKind,
+    payload_kg: f32,
+    limits: Limits,
+    shaper: Shaper,
+    stream_every: u16,
+    /// The move running or last run, with its base (a stop cuts the base).
+    current: Option<Plan>,
+}
+
+impl<const N: usize> Commander<N> {
+    /// The handler for `kind` on the beam `base` carrying `payload_kg`, with the law to build
+    /// the controller with.
+    pub fn try_new(
+        base: BeamParams,
+        table: &'static [GainRow],
+        kind: LawKind,
+        payload_kg: f32,
+    ) -> Result<(Self, ControlLaw), SetupError> {
+        let (law, shaper, limits) = configure::<N>(&base, table, kind, payload_kg)?;
+        let me = Self {
+            base,
+            table,
+            kind,
+            payload_kg,
+            limits,
+            shaper,
+            stream_every: 0,
+            current: None,
+        };
+        Ok((me, law))
+    }
+
+    /// The planner's limits for the present payload.
+    pub fn limits(&self) -> &Limits {
+        &self.limits
+    }
+
+    /// The shaper every move is planned with.
+    pub fn shaper(&self) -> &Shaper {
+        &self.shaper
+    }
+
+    /// The payload the gains are scheduled for, kg.
+    pub fn payload_kg(&self) -> f32 {
+        self.payload_kg
+    }
+
+    /// Telemetry decimation, ticks per record (0: off).
+    pub fn stream_every(&self) -> u16 {
+        self.stream_every
+    }
+
+    /// Carries out `req` on `ctl` and answers it. Changes nothing unless the reply says so.
+    pub fn handle(&mut self, ctl: &mut CommandedController, req: &Request) -> Reply {
+        Reply {
+            seq: req.seq,
+            outcome: match self.outcome(ctl, &req.command) {
+                Ok(o) => o,
+                Err(r) => Outcome::Refused(r),
+            },
+        }
+    }
+
+    fn outcome(
+        &mut self,
+        ctl: &mut CommandedController,
+        command: &Command,
+    ) -> Result<Outcome, Refusal> {
+        let ready = |ctl: &CommandedController| match ctl.mode() {
+            Mode::Fault => Err(Refusal::Faulted),
+            Mode::Slewing => Err(Refusal::Busy),
+            Mode::Idle | Mode::Holding => Ok(()),
+        };
+        match command {
+            Command::MoveTo { to_rad, time_s } => {
+                ready(ctl)?;
+                let target = [Waypoint {
+                    rad: *to_rad,
+                    at_s: None,
+                }];
+                self.start(ctl, &target, *time_s)
+            }
+            Command::MoveThrough { waypoints, time_s } => {
+                ready(ctl)?;
+                let mut points = [Waypoint {
+                    rad: 0.0,
+                    at_s: None,
+                }; crate::planner::MAX_WAYPOINTS];
+                for (p, w) in points.iter_mut().zip(waypoints.iter()) {
+                    *p = Waypoint {
+                        rad: w.rad,
+                        at_s: w.at_s,
+                    };
+                }
+                self.start(ctl, &points[..waypoints.len()], *time_s)
+            }
+            Command::SetPayload { kg } => {
+                ready(ctl)?;
+                if !(kg.is_finite() && (0.0..=MAX_PAYLOAD_KG).contains(kg)) {
+                    return Err(Refusal::BadArgument);
+                }
+                let (law, shaper, limits) = configure::<N>(&self.base, self.table, self.kind, *kg)
+                    .map_err(|e| match e {
+                        SetupError::NoGains => Refusal::NoGains,
+                        SetupError::Beam(_) | SetupError::Model(_) | SetupError::Gains(_) => {
+                            Refusal::BadArgument
+                        }
+                    })?;
+                ctl.set_law(law).map_err(refusal)?;
+                (self.payload_kg, self.shaper, self.limits) = (*kg, shaper, limits);
+                Ok(Outcome::Done)
+            }
+            Command::Stop => self.stop(ctl),
+            Command::Disable => {
+                ctl.disable();
+                Ok(Outcome::Done)
+            }
+            Command::ClearFault => {
+                if ctl.mode() == Mode::Fault {
+                    ctl.reset();
+                }
+                Ok(Outcome::Done)
+            }
+            Command::Status => Ok(Outcome::Status(self.status(ctl))),
+            Command::Stream { every } => {
+                self.stream_every = *every;
+                Ok(Outcome::Done)
+            }
+        }
+    }
+
+    /// Plans the move from the hub's last measured angle and starts it.
+    fn start(
+        &mut self,
+        ctl: &mut CommandedController,
+        waypoints: &[Waypoint],
+        time_s: Option<f32>,
+    ) -> Result<Outcome, Refusal> {
+        let plan = plan_through(
+            ctl.theta_rad(),
+            waypoints,
+            time_s,
+            &self.shaper,
+            &self.limits,
+        )
+        .map_err(plan_refusal)?;
+        let duration_s = plan.shaped.duration_s();
+        ctl.set_spline(plan.shaped.clone()).map_err(refusal)?;
+        ctl.start_move().map_err(refusal)?;
+        self.current = Some(plan);
+        Ok(Outcome::Moving { duration_s })
+    }
+
+    /// Stops the running move: its base is cut at the next tick's time and brought to rest
+    /// ([`plan_stop`]), shaped like the move; the shaped reference is unchanged up to then.
+    fn stop(&mut self, ctl: &mut CommandedController) -> Result<Outcome, Refusal> {
+        if ctl.mode() != Mode::Slewing {
+            return Err(Refusal::NotMoving);
+        }
+        let current = self.current.as_ref().ok_or(Refusal::NotMoving)?;
+        // The next tick evaluates the move at the elapsed time (it has counted this tick).
+        let stopped =
+            plan_stop(current, ctl.move_elapsed_s(), &self.limits).map_err(plan_refusal)?;
+        let duration_s = stopped.shaped.duration_s();
+        ctl.replace_move(stopped.shaped.clone()).map_err(refusal)?;
+        self.current = Some(stopped);
+        Ok(Outcome::Moving { duration_s })
+    }
+
+    /// The drive's state.
+    pub fn status(&self, ctl: &CommandedController) -> Status {
+        Status {
+            mode: ctl.mode() as u8,
+            faults: ctl.faults().0,
+            theta_rad: ctl.theta_rad(),
+            omega_rad_s: ctl.omega_rad_s(),
+            strain: ctl.strain(),
+            move_elapsed_s: ctl.move_elapsed_s(),
+            move_duration_s: ctl.spline().duration_s(),
+            payload_kg: self.payload_kg,
+            law: Some(self.kind),
+            stream_every: self.stream_every,
+        }
+    }
+}
+
+fn plan_refusal(e: PlanError) -> Refusal {
+    match e {
+        PlanError::TooFast { needs_s } => Refusal::TooFast { needs_s },
+        PlanError::OutOfRange { rad, .. } => Refusal::OutOfRange { rad },
+        PlanError::NoWaypoints
+        | PlanError::TooManyWaypoints { .. }
+        | PlanError::NonFinite
+        | PlanError::MixedTimes
+        | PlanError::TimesNotIncreasing
+        | PlanError::BadLimits
+        | PlanError::Unplannable
+        | PlanError::Spline(_)
+        | PlanError::Shaper(_) => Refusal::BadArgument,
+    }
+}
+
+fn refusal(e: CommandError) -> Refusal {
+    match e {
+        CommandError::Faulted => Refusal::Faulted,
+        CommandError::Busy => Refusal::Busy,
+        CommandError::NotMoving => Refusal::NotMoving,
+    }
+}
+
+/// The law, shaper and limits for `kind` on `base` carrying `payload_kg`.
+fn configure<const N: usize>(
+    base: &BeamParams,
+    table: &[GainRow],
+    kind: LawKind,
+    payload_kg: f32,
+) -> Result<(ControlLaw, Shaper, Limits), SetupError> {
+    let params = BeamParams {
+        tip_mass_kg: payload_kg as f64,
+        ..*base
+    };
+    let beam = Beam::try_build(params).map_err(SetupError::Beam)?;
+    let model = ModalModel::<N>::try_build(&beam).map_err(SetupError::Model)?;
+    let gains = law_for(table, kind, payload_kg).ok_or(SetupError::NoGains)?;
+    let law = ControlLaw::try_build(gains, &model).map_err(SetupError::Gains)?;
+    Ok((
+        law,
+        schedule_shaper(table, kind, payload_kg),
+        Limits::for_model(&model),
+    ))
+}
