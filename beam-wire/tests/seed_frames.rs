@@ -53,3 +53,67 @@ fn frames_from_an_independent_encoder_decode() {
         other => panic!("{other:?}"),
     }
 }
+
+/// The command seeds, by the same independent encoder (`fuzz/seeds/make_command_frames.py`).
+#[test]
+fn command_frames_from_the_independent_encoder_decode() {
+    use beam_wire::command::{Command, Request, Waypoint};
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../fuzz/seeds/command/");
+    let requests = |name: &str| -> Vec<Request> {
+        let mut r = FrameReader::new();
+        std::fs::read(format!("{dir}{name}"))
+            .unwrap()
+            .into_iter()
+            .filter_map(|b| r.push(b).map(|f| f.unwrap().to_vec()))
+            .map(|mut f| decode(&mut f).unwrap())
+            .collect()
+    };
+    assert_eq!(
+        requests("move_to"),
+        [Request {
+            seq: 1,
+            command: Command::MoveTo {
+                to_rad: 0.785,
+                time_s: None
+            }
+        }]
+    );
+    assert_eq!(
+        requests("move_through"),
+        [Request {
+            seq: 3,
+            command: Command::MoveThrough {
+                waypoints: [0.17, -0.52]
+                    .iter()
+                    .map(|&rad| Waypoint { rad, at_s: None })
+                    .collect(),
+                time_s: None
+            }
+        }]
+    );
+    match &requests("move_through_timed")[0].command {
+        Command::MoveThrough { waypoints, .. } => {
+            assert_eq!(waypoints.len(), 8);
+            assert_eq!(waypoints[7].at_s, Some(1.6));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        requests("set_payload")[0].command,
+        Command::SetPayload { kg: 0.025 }
+    );
+    let many: Vec<Command> = requests("stop_disable_clear_status")
+        .into_iter()
+        .map(|r| r.command)
+        .collect();
+    assert_eq!(
+        many,
+        [
+            Command::Stop,
+            Command::Disable,
+            Command::ClearFault,
+            Command::Status
+        ]
+    );
+    assert_eq!(requests("stream")[0].command, Command::Stream { every: 10 });
+}
