@@ -10,11 +10,13 @@
 //! the drive's defmt telemetry (on semihosting stderr) is decoded with the ELF.
 
 use crate::telemetry::{self, mode_of, Decoded};
+use beam_wire::command::{Reply, Request};
 use beam_wire::{
     decode, encode, CommandFrame, DriveError, DriveMessage, FrameError, FrameReader, HostMessage,
     SensorFrame, MAX_FRAME,
 };
 use firmware::config::{build_controller_for, sequence_for};
+use host_tests::commanded::{run_script, CommandedDrive, CommandedRun, HostDrive, Step};
 use host_tests::plant::Plant;
 use host_tests::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
 use model_core::LawKind;
@@ -97,6 +99,33 @@ impl PilDrive {
     /// Starts QEMU with the PIL firmware (and the plugin, if any), sends the setup and waits
     /// for the drive to report ready. `settings` are the drive's controller settings.
     pub fn spawn(cfg: &PilConfig, settings: ControllerSettings) -> Result<Self, PilError> {
+        let setup = HostMessage::Setup {
+            controller: cfg.controller,
+            payload_kg: cfg.payload_kg,
+        };
+        Self::spawn_with(cfg, settings, &setup)
+    }
+
+    /// Starts QEMU as [`PilDrive::spawn`] does, for a commanded drive idle at `home_rad`:
+    /// moves then come only as commands ([`CommandedDrive::handle`]).
+    pub fn spawn_commanded(
+        cfg: &PilConfig,
+        settings: ControllerSettings,
+        home_rad: f32,
+    ) -> Result<Self, PilError> {
+        let setup = HostMessage::SetupCommanded {
+            controller: cfg.controller,
+            payload_kg: cfg.payload_kg,
+            home_rad,
+        };
+        Self::spawn_with(cfg, settings, &setup)
+    }
+
+    fn spawn_with(
+        cfg: &PilConfig,
+        settings: ControllerSettings,
+        setup: &HostMessage,
+    ) -> Result<Self, PilError> {
         if !cfg.elf.exists() {
             return Err(PilError::NoFirmware(cfg.elf.clone()));
         }
@@ -153,10 +182,7 @@ impl PilDrive {
             faults: 0,
             record: vec![],
         };
-        drive.send(&HostMessage::Setup {
-            controller: cfg.controller,
-            payload_kg: cfg.payload_kg,
-        })?;
+        drive.send(setup)?;
         match drive.receive() {
             Ok(DriveMessage::Ready) => Ok(drive),
             Ok(DriveMessage::Error(e)) => Err(PilError::Refused(e)),
@@ -278,6 +304,7 @@ impl DriveLoop for PilDrive {
             }
             DriveMessage::Error(e) => return Err(drive(PilError::Stopped(e))),
             DriveMessage::Ready => return Err(drive(PilError::ReadyMidRun)),
+            DriveMessage::Reply(r) => return Err(drive(PilError::UnexpectedReply(r))),
         };
         let mode = mode_of(c.mode).ok_or(drive(PilError::UnknownMode {
             seq: c.seq,
@@ -446,6 +473,12 @@ pub enum PilError {
         /// Why.
         reason: firmware::config::BuildError,
     },
+    /// A command reply came where a tick's command frame was due.
+    #[error("a command reply ({0:?}) where a tick's frame was due")]
+    UnexpectedReply(beam_wire::command::Reply),
+    /// A tick's frame (or another message) came where a command's reply was due.
+    #[error("no reply to command {0}")]
+    NoReply(u16),
     /// The plugin was asked for but logged nothing.
     #[error("the instruction-count plugin logged no counts: {0}")]
     NoCounts(String),
@@ -479,6 +512,92 @@ fn chain(e: &dyn std::error::Error) -> String {
         next = cause.source();
     }
     text
+}
+
+impl CommandedDrive for PilDrive {
+    fn handle(&mut self, request: &Request) -> Result<Reply, SimError> {
+        let drive = |e: PilError| SimError::Drive(Box::new(e));
+        self.send(&HostMessage::Command(request.clone()))
+            .map_err(drive)?;
+        match self.receive().map_err(drive)? {
+            DriveMessage::Reply(r) if r.seq == request.seq => Ok(r),
+            DriveMessage::Error(e) => Err(drive(PilError::Stopped(e))),
+            _ => Err(drive(PilError::NoReply(request.seq))),
+        }
+    }
+
+    fn tick(&mut self, raw: &RawMeasurement) -> Result<TorqueCommand, SimError> {
+        DriveLoop::tick(self, raw, false)
+    }
+}
+
+/// A commanded session run through the PIL drive and through the host's build of the same
+/// drive.
+#[derive(Clone, Debug)]
+pub struct CommandedPilOutcome {
+    /// The run through the PIL drive.
+    pub pil: CommandedRun,
+    /// The same script through the host's build (same plant, same sensor noise).
+    pub host: CommandedRun,
+    /// Every torque and mode, and every reply, equal bit for bit.
+    pub identical: bool,
+    /// Largest torque difference, in units in the last place of f32.
+    pub max_ulps: u64,
+    /// Instructions per tick, when counted.
+    pub insns: Option<InsnStats>,
+}
+
+/// Runs `script` with the PIL drive (commanded, idle at `home_rad`) against the beam
+/// `plant`, and again with the host's build of the same drive; compares them.
+pub fn run_pil_commands<const N: usize>(
+    plant: model_core::BeamParams,
+    cfg: &PilConfig,
+    home_rad: f32,
+    script: &[Step],
+    sensors: host_tests::sensors::SensorConfig,
+) -> Result<CommandedPilOutcome, PilError> {
+    let config = |reason| PilError::Config {
+        kind: cfg.controller,
+        reason,
+    };
+    let (controller, commander) =
+        firmware::config::build_commanded(cfg.controller, cfg.payload_kg, home_rad)
+            .map_err(config)?;
+    let mut host = HostDrive {
+        commander,
+        controller,
+    };
+    let settings = *host.controller.settings();
+    let host_run = run_script::<N, _>(plant, &mut host, home_rad, script, sensors)?;
+    let mut drive = PilDrive::spawn_commanded(cfg, settings, home_rad)?;
+    let pil = match run_script::<N, _>(plant, &mut drive, home_rad, script, sensors) {
+        Ok(run) => run,
+        Err(e) => return Err(drive.explain(&e)),
+    };
+    let (_, insn_text) = drive.finish()?;
+    let mut max_ulps = 0;
+    let mut identical =
+        pil.ticks.len() == host_run.ticks.len() && pil.exchanges.len() == host_run.exchanges.len();
+    for (p, h) in pil.ticks.iter().zip(&host_run.ticks) {
+        max_ulps = max_ulps.max(ulps(p.torque_nm, h.torque_nm));
+        identical &= p.torque_nm.to_bits() == h.torque_nm.to_bits() && p.mode == h.mode;
+    }
+    for (p, h) in pil.exchanges.iter().zip(&host_run.exchanges) {
+        identical &= p.reply == h.reply;
+    }
+    let insns = match &cfg.plugin {
+        Some(_) => {
+            Some(parse_insn_log(&insn_text).ok_or_else(|| PilError::NoCounts(insn_text.clone()))?)
+        }
+        None => None,
+    };
+    Ok(CommandedPilOutcome {
+        pil,
+        host: host_run,
+        identical,
+        max_ulps,
+        insns,
+    })
 }
 
 /// Runs the paper's slew with the PIL drive under QEMU against `plant`.

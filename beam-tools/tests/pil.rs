@@ -286,3 +286,47 @@ fn injected_faults_get_the_same_reaction_on_the_same_tick_through_the_pil() {
         assert!(pil.run.samples[k..].iter().all(|s| s.torque == 0.0));
     }
 }
+
+#[test]
+fn a_commanded_session_runs_on_the_firmware_exactly_as_on_the_host() {
+    if !qemu_present() {
+        return;
+    }
+    use beam_tools::pil_host::run_pil_commands;
+    use beam_wire::command::Outcome;
+    use host_tests::commanded::session_script;
+    let cfg = config(LawKind::PdFf, true);
+    let script = session_script();
+    let out = run_pil_commands::<3>(
+        BeamParams::aluminium(),
+        &cfg,
+        0.0,
+        &script,
+        host_tests::sensors::SensorConfig::default(),
+    )
+    .unwrap();
+    // Bit for bit: every torque and mode of every tick, and every reply.
+    assert!(out.identical, "max {} ulps", out.max_ulps);
+    assert_eq!(out.max_ulps, 0);
+    assert!(out.pil.ticks.len() > 5000, "{}", out.pil.ticks.len());
+    // Every command was answered; the moves were planned on the drive and ran.
+    let moves = out
+        .pil
+        .exchanges
+        .iter()
+        .filter(|e| matches!(e.reply.outcome, Outcome::Moving { .. }))
+        .count();
+    assert_eq!(moves, 7, "{:?}", out.pil.exchanges);
+    let end = out.pil.ticks.last().unwrap();
+    assert_eq!(end.mode, Mode::Holding);
+    assert!(
+        end.theta.to_degrees().abs() < 0.5,
+        "{}",
+        end.theta.to_degrees()
+    );
+    if let Some(insns) = out.insns {
+        assert_eq!(insns.ticks, out.pil.ticks.len());
+        // The command path runs between ticks: the tick's own count stays in its budget.
+        assert!(insns.max <= 600, "worst tick {} instructions", insns.max);
+    }
+}

@@ -68,8 +68,9 @@ pub struct CommandFrame {
     pub faults: u8,
 }
 
-/// Host to drive.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// Host to drive. Variants are only ever appended, so a frame of an older host still
+/// decodes the same (the version is bumped when an existing message changes).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum HostMessage {
     /// Build the controller: which law, for which payload. First message of a run.
     Setup {
@@ -82,6 +83,19 @@ pub enum HostMessage {
     Sensors(SensorFrame),
     /// End of the run: the drive exits with status 0.
     Stop,
+    /// Build a commanded drive instead (first message of a run): moves come only as
+    /// [`HostMessage::Command`]s, planned by the drive from where the hub rests.
+    SetupCommanded {
+        /// The law.
+        controller: LawKind,
+        /// Payload, kg (the drive's initial setting).
+        payload_kg: f32,
+        /// Where the hub rests at power-up, rad (the encoder's zero).
+        home_rad: f32,
+    },
+    /// A command for a commanded drive, carried out before the next tick and answered
+    /// with [`DriveMessage::Reply`].
+    Command(command::Request),
 }
 
 /// Drive to host.
@@ -93,6 +107,8 @@ pub enum DriveMessage {
     Command(CommandFrame),
     /// The drive could not go on; it exits after sending this.
     Error(DriveError),
+    /// The answer to a [`HostMessage::Command`].
+    Reply(command::Reply),
 }
 
 /// Why the PIL drive stopped.
@@ -337,7 +353,7 @@ mod tests {
                 payload_kg: 0.025,
             },
         ] {
-            assert_eq!(roundtrip(m), Ok(m));
+            assert_eq!(roundtrip(m.clone()), Ok(m));
         }
         let mut buf = [0u8; MAX_FRAME + 1];
         let c = DriveMessage::Command(CommandFrame {

@@ -4,11 +4,12 @@
 //! the drive never enables the amplifier. The gains come from the table compiled from
 //! `gains.toml` (model-core's `GAIN_TABLE`), scheduled on the payload.
 
+use model_core::commands::{CommandedController, Commander, SetupError};
 use model_core::gains::{schedule_shaper, GAIN_TABLE};
 use model_core::shaper::shaped_quintic;
 use model_core::{
     Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind,
-    ModalModel, ModelError, ParamError, ShaperError, Spline, Timing,
+    ModalModel, ModelError, ParamError, ShaperError, Spline, SplineError, Timing,
 };
 
 /// Knots per move: the paper's moves are single quintic segments.
@@ -62,6 +63,10 @@ pub enum BuildError {
     Config(ConfigError),
     /// A move (shaped or not).
     Shape(ShaperError),
+    /// The commanded drive's handler.
+    Setup(SetupError),
+    /// The commanded drive's resting move.
+    Rest(SplineError),
 }
 
 /// The drive's controller ([`CONTROLLER`] at [`PAYLOAD_KG`]), idle, armed with the first move.
@@ -89,6 +94,28 @@ pub fn build_controller_for(
     };
     let [first, _] = sequence_for(kind, payload_kg)?;
     Controller::try_build(settings, law, first).map_err(BuildError::Config)
+}
+
+/// A commanded drive for the aluminium beam (3-mode model): its controller, idle at
+/// `home_rad` (the encoder's zero), and the handler its commands go through, running `kind`
+/// scheduled for `payload_kg`.
+pub fn build_commanded(
+    kind: LawKind,
+    payload_kg: f32,
+    home_rad: f32,
+) -> Result<(CommandedController, Commander<3>), BuildError> {
+    let params = BeamParams::aluminium();
+    let (commander, law) =
+        Commander::<3>::try_new(params, GAIN_TABLE, kind, payload_kg).map_err(BuildError::Setup)?;
+    let settings = ControllerSettings {
+        theta_home_rad: home_rad,
+        torque_limit_nm: params.torque_limit_nm as f32,
+        ..ControllerSettings::default()
+    };
+    // Until the first command plans a move, the controller holds a move of no length.
+    let rest = Spline::try_build(&[(0.0, home_rad), (1.0, home_rad)]).map_err(BuildError::Rest)?;
+    let controller = Controller::try_build(settings, law, rest).map_err(BuildError::Config)?;
+    Ok((controller, commander))
 }
 
 /// The move of `moves` whose start is nearest `theta_rad` (none for a non-finite angle).

@@ -211,3 +211,24 @@ where
         self.strain.last()
     }
 }
+
+impl<Q, S, A> Drive<{ model_core::planner::SHAPED_PLAN_KNOTS }, Q, S, A>
+where
+    Q: QuadratureCounter,
+    S: StrainSensor,
+    A: Actuator,
+{
+    /// Carries out a command of the wire protocol through `commander` (between ticks; it
+    /// takes effect at the next one). Clearing a fault also clears a driver failure.
+    pub fn handle<const N: usize>(
+        &mut self,
+        commander: &mut model_core::commands::Commander<N>,
+        request: &beam_wire::command::Request,
+    ) -> beam_wire::command::Reply {
+        let reply = commander.handle(&mut self.controller, request);
+        if request.command == beam_wire::command::Command::ClearFault {
+            self.driver_failed = false;
+        }
+        reply
+    }
+}

@@ -7,7 +7,9 @@ use crate::sensors::{SensorConfig, Sensors};
 use crate::sim::{settings_for, Integrator, SimError};
 use beam_wire::command::{Command, Outcome, Reply, Request};
 use model_core::commands::{CommandedController, Commander};
-use model_core::{BeamParams, Controller, LawKind, ModalModel, Mode, Spline};
+use model_core::{
+    BeamParams, Controller, LawKind, ModalModel, Mode, RawMeasurement, Spline, TorqueCommand,
+};
 
 /// One step of a script.
 #[derive(Clone, Debug, PartialEq)]
@@ -99,8 +101,66 @@ impl CommandedRun {
     }
 }
 
-/// Runs `script` against the beam `plant`, the drive running `kind` on the nominal `drive`
-/// beam (its payload is the drive's initial setting), from rest at `home_rad`.
+/// A drive that takes commands: model-core's handler on the host, or the firmware under
+/// QEMU (`beam_tools::pil_host`).
+pub trait CommandedDrive {
+    /// Carries out a command before the next tick.
+    fn handle(&mut self, request: &Request) -> Result<Reply, SimError>;
+    /// One tick.
+    fn tick(&mut self, raw: &RawMeasurement) -> Result<TorqueCommand, SimError>;
+}
+
+/// model-core's command handler and controller, run on the host.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HostDrive<const N: usize> {
+    /// The handler.
+    pub commander: Commander<N>,
+    /// The controller.
+    pub controller: CommandedController,
+}
+
+impl<const N: usize> HostDrive<N> {
+    /// The drive running `kind` on the nominal `drive` beam (its payload the initial
+    /// setting), idle at `home_rad`, with settings matching `sensors`.
+    pub fn try_new(
+        drive: BeamParams,
+        kind: LawKind,
+        home_rad: f32,
+        sensors: &SensorConfig,
+    ) -> Result<Self, SimError> {
+        let table = model_core::gains::GAIN_TABLE;
+        let (commander, law) =
+            Commander::<N>::try_new(drive, table, kind, drive.tip_mass_kg as f32)
+                .map_err(|e| SimError::Drive(Box::new(e)))?;
+        let nominal = ModalModel::<N>::try_build(&model_core::Beam::try_build(drive)?)?;
+        let settings = model_core::ControllerSettings {
+            theta_home_rad: home_rad,
+            ..settings_for(&nominal, sensors)
+        };
+        // Idle at home: a move of no length until the first command plans a real one.
+        let rest =
+            Spline::try_build(&[(0.0, home_rad), (1.0, home_rad)]).map_err(SimError::Spline)?;
+        let controller = Controller::try_build(settings, law, rest).map_err(SimError::Config)?;
+        Ok(Self {
+            commander,
+            controller,
+        })
+    }
+}
+
+impl<const N: usize> CommandedDrive for HostDrive<N> {
+    fn handle(&mut self, request: &Request) -> Result<Reply, SimError> {
+        Ok(self.commander.handle(&mut self.controller, request))
+    }
+
+    fn tick(&mut self, raw: &RawMeasurement) -> Result<TorqueCommand, SimError> {
+        Ok(self.controller.step(raw))
+    }
+}
+
+/// Runs `script` against the beam `plant` with model-core's handler on the host, the
+/// drive running `kind` on the nominal `drive` beam (its payload the initial setting), from
+/// rest at `home_rad`.
 pub fn run_commands<const N: usize>(
     plant: BeamParams,
     drive: BeamParams,
@@ -109,26 +169,26 @@ pub fn run_commands<const N: usize>(
     script: &[Step],
     sensors: SensorConfig,
 ) -> Result<CommandedRun, SimError> {
-    let table = model_core::gains::GAIN_TABLE;
-    let (mut commander, law) =
-        Commander::<N>::try_new(drive, table, kind, drive.tip_mass_kg as f32)
-            .map_err(|e| SimError::Drive(Box::new(e)))?;
-    let nominal = ModalModel::<N>::try_build(&model_core::Beam::try_build(drive)?)?;
-    let settings = model_core::ControllerSettings {
-        theta_home_rad: home_rad,
-        ..settings_for(&nominal, &sensors)
-    };
-    // Idle at home: a zero-length move there until the first command plans a real one.
-    let rest = Spline::try_build(&[(0.0, home_rad), (1.0, home_rad)]).map_err(SimError::Spline)?;
-    let mut ctl: CommandedController =
-        Controller::try_build(settings, law, rest).map_err(SimError::Config)?;
+    let mut host = HostDrive::<N>::try_new(drive, kind, home_rad, &sensors)?;
+    run_script::<N, _>(plant, &mut host, home_rad, script, sensors)
+}
+
+/// Runs `script` against the beam `plant` with `drive`, from rest at `home_rad` (where the
+/// drive's encoder reads zero).
+pub fn run_script<const N: usize, D: CommandedDrive>(
+    plant: BeamParams,
+    drive: &mut D,
+    home_rad: f32,
+    script: &[Step],
+    sensors: SensorConfig,
+) -> Result<CommandedRun, SimError> {
     let build = |params: BeamParams| -> Result<Plant<N>, SimError> {
         Ok(Plant::new(ModalModel::<N>::try_build(
             &model_core::Beam::try_build(params)?,
         )?))
     };
     let mut plant_now = build(plant)?;
-    let ts = crate::decimal::f32_decimal(settings.ts_s);
+    let ts = crate::decimal::f32_decimal(model_core::DEFAULT_TS_S);
     let mut sens = Sensors::new(sensors, home_rad as f64);
     let mut x = State::<N>::at_rest(home_rad as f64);
     let mut run = CommandedRun::default();
@@ -137,15 +197,15 @@ pub fn run_commands<const N: usize>(
     let mut amp_fault_ticks = 0u32;
     let tick = |plant: &Plant<N>,
                 x: &mut State<N>,
-                ctl: &mut CommandedController,
+                drive: &mut D,
                 sens: &mut Sensors,
                 amp_fault: bool,
                 run: &mut CommandedRun,
                 k: &mut usize|
-     -> Result<(), SimError> {
+     -> Result<Mode, SimError> {
         let t = crate::decimal::tick_time(*k, ts);
         let raw = sens.read(x.theta, plant.outputs(x).root_strain, amp_fault);
-        let cmd = ctl.step(&raw);
+        let cmd = drive.tick(&raw)?;
         run.ticks.push(Tick {
             t,
             theta: x.theta,
@@ -163,12 +223,12 @@ pub fn run_commands<const N: usize>(
             SimError::Drive(format!("the beam left the model at {t} s: {why}").into())
         })?;
         *k += 1;
-        Ok(())
+        Ok(cmd.mode)
     };
     // Let the strain offset settle before the first command, as after power-up.
     for _ in 0..50 {
         tick(
-            &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+            &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
         )?;
     }
     for step in script {
@@ -179,7 +239,7 @@ pub fn run_commands<const N: usize>(
                     seq,
                     command: command.clone(),
                 };
-                let reply = commander.handle(&mut ctl, &request);
+                let reply = drive.handle(&request)?;
                 run.exchanges.push(Exchange {
                     t: crate::decimal::tick_time(k, ts),
                     request,
@@ -192,29 +252,29 @@ pub fn run_commands<const N: usize>(
                     let fault = amp_fault_ticks > 0;
                     amp_fault_ticks = amp_fault_ticks.saturating_sub(1);
                     tick(
-                        &plant_now, &mut x, &mut ctl, &mut sens, fault, &mut run, &mut k,
+                        &plant_now, &mut x, drive, &mut sens, fault, &mut run, &mut k,
                     )?;
                 }
             }
             Step::UntilDone { settle_s, max_s } => {
                 let limit = (max_s / ts).round() as usize;
                 // One tick first: a move just commanded starts on the next tick.
-                tick(
-                    &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+                let mut mode = tick(
+                    &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
                 )?;
                 let mut n = 1;
-                while ctl.mode() == Mode::Slewing {
+                while mode == Mode::Slewing {
                     if n >= limit {
                         return Err(SimError::Option("a move did not end within its wait"));
                     }
-                    tick(
-                        &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+                    mode = tick(
+                        &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
                     )?;
                     n += 1;
                 }
                 for _ in 0..(settle_s / ts).round() as usize {
                     tick(
-                        &plant_now, &mut x, &mut ctl, &mut sens, false, &mut run, &mut k,
+                        &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
                     )?;
                 }
             }
@@ -228,4 +288,63 @@ pub fn run_commands<const N: usize>(
         }
     }
     Ok(run)
+}
+
+/// A session that exercises every command: from rest at 0 deg, to 45 deg (with a status
+/// during and after), through 10 and -30 deg, the payload changed to 25 g (attached to the
+/// beam too), to -90 and then +90 deg (the paper's 180 deg), towards -90 again but stopped
+/// 80 ms in, an amplifier fault (a move refused while it is latched), the fault cleared, and
+/// a last move back to 0 deg; each move in the shortest time the planner allows.
+pub fn session_script() -> Vec<Step> {
+    const DEG: f32 = core::f32::consts::PI / 180.0;
+    let move_to = |deg: f32| {
+        Step::Send(Command::MoveTo {
+            to_rad: deg * DEG,
+            time_s: None,
+        })
+    };
+    let done = || Step::UntilDone {
+        settle_s: 0.4,
+        max_s: 5.0,
+    };
+    let via = |deg: &[f32]| {
+        Step::Send(Command::MoveThrough {
+            waypoints: deg
+                .iter()
+                .map(|d| beam_wire::command::Waypoint {
+                    rad: d * DEG,
+                    at_s: None,
+                })
+                .collect(),
+            time_s: None,
+        })
+    };
+    vec![
+        move_to(45.0),
+        Step::Wait(0.05),
+        Step::Send(Command::Status),
+        done(),
+        Step::Send(Command::Status),
+        via(&[10.0, -30.0]),
+        done(),
+        Step::Attach(0.025),
+        Step::Send(Command::SetPayload { kg: 0.025 }),
+        move_to(-90.0),
+        done(),
+        move_to(90.0),
+        done(),
+        move_to(-90.0),
+        Step::Wait(0.08),
+        Step::Send(Command::Stop),
+        done(),
+        Step::Send(Command::Status),
+        Step::AmpFault(3),
+        Step::Wait(0.01),
+        move_to(0.0),
+        Step::Send(Command::ClearFault),
+        Step::Wait(0.3),
+        move_to(0.0),
+        done(),
+        Step::Send(Command::Status),
+    ]
 }

@@ -1,8 +1,8 @@
 //! The command protocol against the simulated beam: a session of moves, waypoints, a payload
 //! change, a stop and a fault, carried out by model-core's command handler.
 
-use beam_wire::command::{Command, Outcome, Refusal, Waypoint};
-use host_tests::commanded::{run_commands, CommandedRun, Step};
+use beam_wire::command::{Command, Outcome, Refusal};
+use host_tests::commanded::{run_commands, session_script, CommandedRun, Step};
 use host_tests::sensors::SensorConfig;
 use model_core::{BeamParams, LawKind, Mode};
 
@@ -24,49 +24,15 @@ fn done() -> Step {
 
 fn session(kind: LawKind) -> CommandedRun {
     let drive = BeamParams::aluminium();
-    let via = |deg: &[f32]| {
-        Step::Send(Command::MoveThrough {
-            waypoints: deg
-                .iter()
-                .map(|d| Waypoint {
-                    rad: d * DEG,
-                    at_s: None,
-                })
-                .collect(),
-            time_s: None,
-        })
-    };
-    let script = [
-        move_to(45.0),
-        Step::Wait(0.05),
-        Step::Send(Command::Status),
-        done(),
-        Step::Send(Command::Status),
-        via(&[10.0, -30.0]),
-        done(),
-        Step::Attach(0.025),
-        Step::Send(Command::SetPayload { kg: 0.025 }),
-        move_to(-90.0),
-        done(),
-        move_to(90.0),
-        done(),
-        // Stop mid-move: a planned stop to rest, then the hold.
-        move_to(-90.0),
-        Step::Wait(0.08),
-        Step::Send(Command::Stop),
-        done(),
-        Step::Send(Command::Status),
-        // An amplifier fault: torque off, moves refused until cleared.
-        Step::AmpFault(3),
-        Step::Wait(0.01),
-        move_to(0.0),
-        Step::Send(Command::ClearFault),
-        Step::Wait(0.3),
-        move_to(0.0),
-        done(),
-        Step::Send(Command::Status),
-    ];
-    run_commands::<3>(drive, drive, kind, 0.0, &script, SensorConfig::default()).unwrap()
+    run_commands::<3>(
+        drive,
+        drive,
+        kind,
+        0.0,
+        &session_script(),
+        SensorConfig::default(),
+    )
+    .unwrap()
 }
 
 #[test]

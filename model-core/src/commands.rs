@@ -26,7 +26,7 @@ pub const MAX_PAYLOAD_KG: f32 = 1.0;
 pub type CommandedController = Controller<SHAPED_PLAN_KNOTS>;
 
 /// Why the drive's configuration could not be built for a payload.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SetupError {
     /// The beam parameters (with the payload) are invalid.

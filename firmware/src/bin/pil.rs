@@ -16,13 +16,16 @@
 #[cfg(target_os = "none")]
 mod pil {
     use beam_wire::{
-        decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage, MAX_FRAME,
+        decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage, LawKind,
+        SensorFrame, MAX_FRAME,
     };
     use core::cell::UnsafeCell;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use firmware::ads1220::Ads1220;
     use firmware::amplifier::{Amplifier, TorqueScale};
-    use firmware::config::{build_controller_for, nearest, sequence_for, SLEW_FROM_RAD};
+    use firmware::config::{
+        build_commanded, build_controller_for, nearest, sequence_for, SLEW_FROM_RAD,
+    };
     use firmware::drive::{Command, Drive};
     use firmware::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm};
     use semihosting::io::{Read, Write};
@@ -73,13 +76,78 @@ mod pil {
     }
 
     fn run(link: &mut Link) -> Result<(), DriveError> {
-        let (kind, payload_kg) = match link.receive()? {
+        match link.receive()? {
             HostMessage::Setup {
                 controller,
                 payload_kg,
-            } => (controller, payload_kg),
-            _ => return Err(DriveError::Unexpected),
-        };
+            } => run_sequence(link, controller, payload_kg),
+            HostMessage::SetupCommanded {
+                controller,
+                payload_kg,
+                home_rad,
+            } => run_commanded(link, controller, payload_kg, home_rad),
+            _ => Err(DriveError::Unexpected),
+        }
+    }
+
+    /// The amplifier on the bench's fake pins.
+    fn amplifier(
+        bench: &Bench,
+    ) -> Result<Amplifier<Pwm<'_>, Direction<'_>, Enable<'_>, Line<'_>>, DriveError> {
+        Amplifier::new(
+            Pwm(bench),
+            Direction(bench),
+            Enable(bench),
+            Line(bench),
+            TorqueScale {
+                full_scale_nm: firmware::config::FULL_SCALE_TORQUE_NM,
+            },
+        )
+        .map_err(|_| DriveError::Config)
+    }
+
+    /// Copies one sensor frame into the bench, after checking its sequence number.
+    fn load(bench: &Bench, sensors: &SensorFrame, expected: u32) -> Result<(), DriveError> {
+        if sensors.seq != expected {
+            return Err(DriveError::Sequence {
+                expected,
+                got: sensors.seq,
+            });
+        }
+        bench.encoder_raw.set(sensors.encoder_raw);
+        bench.strain_code.set(sensors.strain_code);
+        bench.amp_fault.set(sensors.amp_fault);
+        Ok(())
+    }
+
+    /// One counted tick, its telemetry logged and its command frame sent.
+    fn tick_and_send<const K: usize, Q, S, A>(
+        link: &mut Link,
+        drive: &mut Drive<K, Q, S, A>,
+        seq: u32,
+    ) -> Result<f32, DriveError>
+    where
+        Q: firmware::drive::QuadratureCounter,
+        S: firmware::drive::StrainSensor,
+        A: firmware::drive::Actuator,
+    {
+        insn_mark_start();
+        let t = drive.tick();
+        insn_mark_end();
+        t.log();
+        link.send(&DriveMessage::Command(CommandFrame {
+            seq,
+            torque_nm: t.torque_nm,
+            theta_rad: t.theta_rad,
+            strain: t.strain,
+            mode: t.mode as u8,
+            faults: t.faults.0,
+        }))?;
+        Ok(t.theta_rad)
+    }
+
+    /// The compiled-in move sequence, started by the START flag of the sensor frames.
+    fn run_sequence(link: &mut Link, kind: LawKind, payload_kg: f32) -> Result<(), DriveError> {
         let controller = build_controller_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
         let moves = sequence_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
         // The sensor frame is copied into the bench before each tick; the ADS1220 and
@@ -87,23 +155,11 @@ mod pil {
         // tick, as the host's sensor model gives one. The amplifier's outputs go nowhere:
         // the torque travels back in the command frame.
         let bench = Bench::new();
-        let amp = match Amplifier::new(
-            Pwm(&bench),
-            Direction(&bench),
-            Enable(&bench),
-            Line(&bench),
-            TorqueScale {
-                full_scale_nm: firmware::config::FULL_SCALE_TORQUE_NM,
-            },
-        ) {
-            Ok(a) => a,
-            Err(_) => return Err(DriveError::Config),
-        };
         let mut drive = Drive::new(
             controller,
             Counter(&bench),
             Ads1220::new(Bus(&bench), DataReady(&bench)),
-            amp,
+            amplifier(&bench)?,
         );
         link.send(&DriveMessage::Ready)?;
         let mut expected = 0u32;
@@ -112,37 +168,57 @@ mod pil {
             let sensors = match link.receive()? {
                 HostMessage::Sensors(s) => s,
                 HostMessage::Stop => return Ok(()),
-                HostMessage::Setup { .. } => return Err(DriveError::Unexpected),
+                HostMessage::Setup { .. }
+                | HostMessage::SetupCommanded { .. }
+                | HostMessage::Command(_) => return Err(DriveError::Unexpected),
             };
-            if sensors.seq != expected {
-                return Err(DriveError::Sequence {
-                    expected,
-                    got: sensors.seq,
-                });
-            }
-            bench.encoder_raw.set(sensors.encoder_raw);
-            bench.strain_code.set(sensors.strain_code);
-            bench.amp_fault.set(sensors.amp_fault);
+            load(&bench, &sensors, expected)?;
             if sensors.start {
                 if let Some(m) = nearest(&moves, theta) {
                     // Refused (faulted, busy): the command frame's mode and faults say so.
                     let _ = drive.command(Command::Move(m.clone()));
                 }
             }
-            insn_mark_start();
-            let t = drive.tick();
-            insn_mark_end();
-            theta = t.theta_rad;
-            t.log();
-            link.send(&DriveMessage::Command(CommandFrame {
-                seq: sensors.seq,
-                torque_nm: t.torque_nm,
-                theta_rad: t.theta_rad,
-                strain: t.strain,
-                mode: t.mode as u8,
-                faults: t.faults.0,
-            }))?;
+            theta = tick_and_send(link, &mut drive, sensors.seq)?;
             expected = expected.wrapping_add(1);
+        }
+    }
+
+    /// A drive that takes commands: each is carried out by model-core's handler between
+    /// ticks and answered at once; moves are planned on the drive.
+    fn run_commanded(
+        link: &mut Link,
+        kind: LawKind,
+        payload_kg: f32,
+        home_rad: f32,
+    ) -> Result<(), DriveError> {
+        let (controller, mut commander) =
+            build_commanded(kind, payload_kg, home_rad).map_err(|_| DriveError::Config)?;
+        let bench = Bench::new();
+        let mut drive = Drive::new(
+            controller,
+            Counter(&bench),
+            Ads1220::new(Bus(&bench), DataReady(&bench)),
+            amplifier(&bench)?,
+        );
+        link.send(&DriveMessage::Ready)?;
+        let mut expected = 0u32;
+        loop {
+            match link.receive()? {
+                HostMessage::Sensors(s) => {
+                    load(&bench, &s, expected)?;
+                    tick_and_send(link, &mut drive, s.seq)?;
+                    expected = expected.wrapping_add(1);
+                }
+                HostMessage::Command(request) => {
+                    let reply = drive.handle(&mut commander, &request);
+                    link.send(&DriveMessage::Reply(reply))?;
+                }
+                HostMessage::Stop => return Ok(()),
+                HostMessage::Setup { .. } | HostMessage::SetupCommanded { .. } => {
+                    return Err(DriveError::Unexpected)
+                }
+            }
         }
     }
 
