@@ -1,6 +1,7 @@
 //! The tools of the slewing-beam toolchain, behind the `beam` command line: gain design
-//! ([`optimize`]), parameter identification from a logged move ([`calibrate`]), Monte Carlo
-//! robustness ([`sweep`]), the processor-in-the-loop host ([`pil_host`]), the drive's
+//! ([`optimize`]), parameter identification from a logged move ([`calibrate`]), command
+//! scripts for a commanded drive ([`drive_script`]), Monte Carlo robustness ([`sweep`]),
+//! the processor-in-the-loop host ([`pil_host`]), the drive's
 //! telemetry ([`telemetry`]), parameter files ([`params_file`]), gain tables read at run time
 //! ([`table`]), plots ([`plot`]) and output files written whole ([`files`]).
 //!
@@ -8,6 +9,7 @@
 #![forbid(unsafe_code)]
 
 pub mod calibrate;
+pub mod drive_script;
 pub mod files;
 pub mod optimize;
 pub mod params_file;

@@ -718,3 +718,58 @@ fn simulate_plans_moves_through_waypoints_in_the_shortest_time() {
         assert_eq!(v["faults"], "none");
     }
 }
+
+#[test]
+fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
+    let dir = scratch("drive");
+    let script = dir.join("s.txt");
+    std::fs::write(
+        &script,
+        "# to 30 deg and back through 10\nmove 30\ndone\nthrough 10,0\ndone\nstatus\nstop\n",
+    )
+    .unwrap();
+    let s = script.to_str().unwrap();
+    let v = json(&beam(&["drive", "--sim", "--script", s, "--json"]));
+    let replies: Vec<&str> = v["exchanges"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["reply"].as_str().unwrap())
+        .collect();
+    assert_eq!(replies.len(), 4);
+    assert!(replies[0].starts_with("Moving") && replies[1].starts_with("Moving"));
+    assert!(replies[2].starts_with("Status"));
+    // Stop at rest: nothing to stop.
+    assert_eq!(replies[3], "Refused(NotMoving)");
+    let moves = v["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), 2);
+    for m in moves {
+        assert!(m["hub_err_deg_after_0_25_s"].as_f64().unwrap() < 0.5, "{m}");
+    }
+    let bad = dir.join("bad.txt");
+    std::fs::write(&bad, "move 30\nfly 3\n").unwrap();
+    let b = bad.to_str().unwrap();
+    for (args, says) in [
+        (vec!["drive", "--script", s], "--pil"),
+        (
+            vec!["drive", "--port", "/dev/null", "--script", s],
+            "transport",
+        ),
+        (vec!["drive", "--sim"], "--script"),
+        (vec!["drive", "--sim", "--script", b], "line 2"),
+        (
+            vec!["drive", "--sim", "--script", "/nonexistent/s"],
+            "/nonexistent/s",
+        ),
+        (
+            vec!["drive", "--sim", "--session", "--payload", "2"],
+            "--payload",
+        ),
+    ] {
+        let out = beam(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}

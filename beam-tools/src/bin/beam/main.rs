@@ -9,6 +9,7 @@
 //! - `beam sweep`: Monte Carlo over parameter errors and payloads, against the PD baseline.
 //! - `beam pil`: the slew with the PIL firmware under QEMU as the drive.
 //! - `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
+//! - `beam drive`: a script of commands for a commanded drive (PIL firmware or host).
 //!
 //! `--json` prints one JSON object on stdout. Every error prints one line on stderr and
 //! exits with code 2.
@@ -27,6 +28,7 @@ macro_rules! with_modes {
 }
 
 mod calibrate_cmd;
+mod drive_cmd;
 mod optimize_cmd;
 mod pil_cmd;
 mod sweep_cmd;
@@ -73,6 +75,11 @@ enum Command {
     Pil(pil_cmd::PilArgs),
     /// Turn a drive's defmt telemetry into the CSV `beam calibrate` reads.
     Telemetry(pil_cmd::TelemetryArgs),
+    /// Command a drive: moves, waypoints, payload, stop, fault clearing, status, from a
+    /// script (`move DEG [S]`, `through DEG,DEG [S]`, `payload KG`, `stop`, `disable`,
+    /// `clear`, `status`, `stream N`, `wait S`, `done [S]`, `attach KG`, `fault N`; one per
+    /// line), on the PIL firmware under QEMU (--pil) or the host (--sim).
+    Drive(drive_cmd::DriveArgs),
 }
 
 /// One of beam-kinds' named enums, for clap: its names are the possible values, with help.
@@ -490,6 +497,7 @@ fn main() -> ExitCode {
         Command::Calibrate(a) => calibrate_cmd::run(&a),
         Command::Pil(a) => pil_cmd::run(&a),
         Command::Telemetry(a) => pil_cmd::telemetry(&a),
+        Command::Drive(a) => drive_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

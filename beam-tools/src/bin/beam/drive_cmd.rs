@@ -1,0 +1,285 @@
+//! `beam drive`: a script of commands for a commanded drive, against the simulated beam,
+//! with the drive either the PIL firmware under QEMU (`--pil`, compared bit for bit with the
+//! host's build) or model-core's handler on the host (`--sim`).
+
+use crate::named;
+use anyhow::{bail, Context};
+use beam_tools::drive_script;
+use beam_tools::pil_host::{build_plugin, paths, run_pil_commands, PilConfig};
+use beam_wire::command::{Command, Outcome, Request};
+use clap::Args;
+use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange};
+use host_tests::sensors::SensorConfig;
+use model_core::{BeamParams, LawKind};
+use serde_json::json;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct DriveArgs {
+    /// Run the commands on the PIL firmware under QEMU, against the simulated beam (and
+    /// on the host's build, to compare).
+    #[arg(long, conflicts_with = "sim")]
+    pil: bool,
+    /// Run the commands on model-core's handler on the host, against the simulated beam.
+    #[arg(long)]
+    sim: bool,
+    /// A serial port with a drive on it (not available yet: the board's transport is not
+    /// built; use --pil or --sim).
+    #[arg(long, value_name = "PORT")]
+    port: Option<String>,
+    /// The script: one command per line, `-` for stdin (see below).
+    #[arg(long, value_name = "FILE", conflicts_with = "session")]
+    script: Option<PathBuf>,
+    /// The built-in session: moves, waypoints, a payload change, a stop, a fault.
+    #[arg(long)]
+    session: bool,
+    /// Control law the drive runs (gains and shaper from the compiled table).
+    #[arg(long, value_parser = named::<LawKind>(), default_value = "pd-ff")]
+    controller: LawKind,
+    /// Payload the drive (and the beam) starts with, kg.
+    #[arg(long, default_value_t = 0.0)]
+    payload: f64,
+    /// Where the hub rests at power-up, deg.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    home: f64,
+    /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo fw`].
+    #[arg(long, value_name = "ELF")]
+    elf: Option<PathBuf>,
+    /// The QEMU binary.
+    #[arg(long, default_value = "qemu-system-arm")]
+    qemu: String,
+    /// Seconds before QEMU is killed.
+    #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u32).range(1..=3600))]
+    timeout: u32,
+    /// Do not count instructions (PIL).
+    #[arg(long)]
+    no_insn_count: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+/// One accepted move's outcome: where it was going, and how the beam was 0.25 s after its
+/// planned end.
+struct MoveResult {
+    command: String,
+    target_deg: Option<f64>,
+    end_s: f64,
+    hub_err_deg: Option<f64>,
+    rms_strain_ue: Option<f64>,
+}
+
+pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
+    if a.port.is_some() {
+        bail!(
+            "--port: the board's serial transport is not built yet; run the commands with \
+             --pil (the firmware under QEMU) or --sim"
+        );
+    }
+    if !a.pil && !a.sim {
+        bail!("say where the drive is: --pil (firmware under QEMU) or --sim (host)");
+    }
+    if !(a.payload.is_finite() && (0.0..=1.0).contains(&a.payload)) {
+        bail!("--payload {} must be in [0, 1] kg", a.payload);
+    }
+    if !(a.home.is_finite() && a.home.abs() <= 180.0) {
+        bail!("--home {} must be within +-180 deg", a.home);
+    }
+    let script = match (&a.script, a.session) {
+        (None, true) => session_script(),
+        (Some(path), false) => {
+            let text = if path.as_os_str() == "-" {
+                std::io::read_to_string(std::io::stdin()).context("stdin")?
+            } else {
+                std::fs::read_to_string(path).with_context(|| path.display().to_string())?
+            };
+            drive_script::parse(&text).with_context(|| path.display().to_string())?
+        }
+        _ => bail!("give the commands: --script FILE (or -) or --session"),
+    };
+    let params = BeamParams {
+        tip_mass_kg: a.payload,
+        ..BeamParams::aluminium()
+    };
+    let home = a.home.to_radians() as f32;
+    let sensors = SensorConfig::default();
+    let (run, pil) = if a.pil {
+        let plugin = if a.no_insn_count {
+            None
+        } else {
+            Some(build_plugin(
+                &paths::insn_plugin_src(),
+                &paths::plugin_dir(),
+            )?)
+        };
+        let cfg = PilConfig {
+            elf: a.elf.clone().unwrap_or_else(paths::pil_elf),
+            qemu: a.qemu.clone(),
+            plugin,
+            profile: false,
+            timeout_s: a.timeout,
+            controller: a.controller,
+            payload_kg: a.payload as f32,
+        };
+        let out = run_pil_commands::<3>(params, &cfg, home, &script, sensors)?;
+        let summary = (out.identical, out.max_ulps, out.insns);
+        (out.pil, Some(summary))
+    } else {
+        let run = run_commands::<3>(params, params, a.controller, home, &script, sensors)?;
+        (run, None)
+    };
+    let moves = move_results(&run);
+    if a.json {
+        let exchanges: Vec<_> = run
+            .exchanges
+            .iter()
+            .map(|e| {
+                json!({
+                    "t_s": e.t,
+                    "seq": e.request.seq,
+                    "command": describe(&e.request),
+                    "reply": format!("{:?}", e.reply.outcome),
+                })
+            })
+            .collect();
+        let moves: Vec<_> = moves
+            .iter()
+            .map(|m| {
+                json!({
+                    "command": m.command,
+                    "target_deg": m.target_deg,
+                    "end_s": m.end_s,
+                    "hub_err_deg_after_0_25_s": m.hub_err_deg,
+                    "rms_root_strain_ue_0_05_0_25_s": m.rms_strain_ue,
+                })
+            })
+            .collect();
+        let mut o = json!({
+            "controller": a.controller.name(),
+            "ticks": run.ticks.len(),
+            "exchanges": exchanges,
+            "moves": moves,
+        });
+        if let Some((identical, ulps, insns)) = pil {
+            o["pil_identical"] = json!(identical);
+            o["pil_max_ulps"] = json!(ulps);
+            o["insns_min"] = json!(insns.map(|i| i.min));
+            o["insns_mean"] = json!(insns.map(|i| i.mean));
+            o["insns_max"] = json!(insns.map(|i| i.max));
+        }
+        println!("{o}");
+    } else {
+        for e in &run.exchanges {
+            println!(
+                "{:8.3} s  #{:<3} {:<28} -> {:?}",
+                e.t,
+                e.request.seq,
+                describe(&e.request),
+                e.reply.outcome
+            );
+        }
+        for m in &moves {
+            let f = |x: Option<f64>, d: usize| x.map_or("-".into(), |v| format!("{v:.d$}"));
+            println!(
+                "  {:<28} ends {:.3} s; 0.25 s later: hub error {} deg, RMS root strain {} ue",
+                m.command,
+                m.end_s,
+                f(m.hub_err_deg, 3),
+                f(m.rms_strain_ue, 1)
+            );
+        }
+        if let Some((identical, ulps, insns)) = pil {
+            println!(
+                "  PIL: {} ticks; torques, modes and replies {} the host build's",
+                run.ticks.len(),
+                if identical {
+                    "bit-identical to".to_string()
+                } else {
+                    format!("differ ({ulps} ulps) from")
+                }
+            );
+            if let Some(i) = insns {
+                println!(
+                    "  instructions per tick: min {}, mean {:.1}, max {}",
+                    i.min, i.mean, i.max
+                );
+            }
+        }
+    }
+    if let Some((false, ulps, _)) = pil {
+        bail!("the PIL drive differs from the host build ({ulps} ulps)");
+    }
+    Ok(())
+}
+
+/// A request in the script's words.
+fn describe(r: &Request) -> String {
+    match &r.command {
+        Command::MoveTo { to_rad, time_s } => format!(
+            "move {:.1}{}",
+            to_rad.to_degrees(),
+            time_s.map_or(String::new(), |t| format!(" {t}"))
+        ),
+        Command::MoveThrough { waypoints, time_s } => format!(
+            "through {}{}",
+            waypoints
+                .iter()
+                .map(|w| format!("{:.1}", w.rad.to_degrees()))
+                .collect::<Vec<_>>()
+                .join(","),
+            time_s.map_or(String::new(), |t| format!(" {t}"))
+        ),
+        Command::SetPayload { kg } => format!("payload {kg}"),
+        Command::Stop => "stop".into(),
+        Command::Disable => "disable".into(),
+        Command::ClearFault => "clear".into(),
+        Command::Status => "status".into(),
+        Command::Stream { every } => format!("stream {every}"),
+    }
+}
+
+fn move_results(run: &CommandedRun) -> Vec<MoveResult> {
+    let target = |e: &Exchange| match &e.request.command {
+        Command::MoveTo { to_rad, .. } => Some(to_rad.to_degrees() as f64),
+        Command::MoveThrough { waypoints, .. } => {
+            waypoints.last().map(|w| w.rad.to_degrees() as f64)
+        }
+        _ => None,
+    };
+    let starts: Vec<f64> = run
+        .exchanges
+        .iter()
+        .filter(|e| matches!(e.reply.outcome, Outcome::Moving { .. }))
+        .map(|e| e.t)
+        .collect();
+    run.exchanges
+        .iter()
+        .filter_map(|e| match e.reply.outcome {
+            Outcome::Moving { duration_s } => {
+                let end_s = e.t + duration_s as f64;
+                // A move cut short by a stop: the stop's own line reports the rest.
+                if starts.iter().any(|&t| t > e.t && t < end_s) {
+                    return Some(MoveResult {
+                        command: format!("{} (stopped)", describe(&e.request)),
+                        target_deg: None,
+                        end_s,
+                        hub_err_deg: None,
+                        rms_strain_ue: None,
+                    });
+                }
+                let target_deg = target(e);
+                Some(MoveResult {
+                    command: describe(&e.request),
+                    target_deg,
+                    end_s,
+                    hub_err_deg: target_deg.and_then(|t| {
+                        run.theta_at(end_s + 0.25)
+                            .map(|th| (th.to_degrees() - t).abs())
+                    }),
+                    rms_strain_ue: run.rms_strain_ue(end_s + 0.05, end_s + 0.25),
+                })
+            }
+            _ => None,
+        })
+        .collect()
+}

@@ -1,0 +1,217 @@
+//! The command scripts `beam drive` runs: one command per line, `#` starts a comment.
+//!
+//! ```text
+//! move DEG [S]             MoveTo DEG, in S seconds or the shortest time
+//! through DEG,DEG,... [S]  MoveThrough the angles (the last is the target)
+//! payload KG               SetPayload
+//! stop | disable | clear | status
+//! stream N                 telemetry every N ticks (0: off)
+//! wait S                   let S seconds pass
+//! done [S]                 wait for the move to end, then S more seconds (default 0.4)
+//! attach KG                (simulated beam only) the payload the beam really carries
+//! fault N                  (simulated beam only) the amplifier's fault line for N ticks
+//! ```
+
+use beam_wire::command::{Command, Waypoint, MAX_WAYPOINTS};
+use host_tests::commanded::Step;
+
+/// A script line that could not be read.
+#[derive(Debug, PartialEq, thiserror::Error)]
+#[error("line {line}: {message}")]
+pub struct ScriptError {
+    /// 1-based line number.
+    pub line: usize,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// Longest wait a script may ask for, s.
+const MAX_WAIT_S: f64 = 600.0;
+
+/// Reads a script.
+pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
+    let mut steps = vec![];
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let err = |message: String| ScriptError {
+            line: i + 1,
+            message,
+        };
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let arg = |k: usize, what: &str| -> Result<f64, ScriptError> {
+            let w = words
+                .get(k)
+                .ok_or_else(|| err(format!("`{}` needs {what}", words[0])))?;
+            w.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| err(format!("`{w}` is not a number ({what})")))
+        };
+        let time = |k: usize| -> Result<Option<f32>, ScriptError> {
+            match words.get(k) {
+                None => Ok(None),
+                Some(_) => {
+                    let t = arg(k, "a time in s")?;
+                    if t > 0.0 {
+                        Ok(Some(t as f32))
+                    } else {
+                        Err(err(format!("time {t} must be positive")))
+                    }
+                }
+            }
+        };
+        let nargs = |max: usize| {
+            if words.len() > max + 1 {
+                Err(err(format!("`{}` takes at most {max} arguments", words[0])))
+            } else {
+                Ok(())
+            }
+        };
+        let step = match words[0] {
+            "move" => {
+                nargs(2)?;
+                Step::Send(Command::MoveTo {
+                    to_rad: (arg(1, "an angle in deg")?.to_radians()) as f32,
+                    time_s: time(2)?,
+                })
+            }
+            "through" => {
+                nargs(2)?;
+                let list = words
+                    .get(1)
+                    .ok_or_else(|| err("`through` needs angles, DEG,DEG,...".into()))?;
+                let mut waypoints = heapless::Vec::<Waypoint, MAX_WAYPOINTS>::new();
+                for a in list.split(',') {
+                    let deg: f64 = a
+                        .parse()
+                        .ok()
+                        .filter(|x: &f64| x.is_finite())
+                        .ok_or_else(|| err(format!("`{a}` is not an angle")))?;
+                    waypoints
+                        .push(Waypoint {
+                            rad: deg.to_radians() as f32,
+                            at_s: None,
+                        })
+                        .map_err(|_| err(format!("at most {MAX_WAYPOINTS} waypoints")))?;
+                }
+                Step::Send(Command::MoveThrough {
+                    waypoints,
+                    time_s: time(2)?,
+                })
+            }
+            "payload" => {
+                nargs(1)?;
+                Step::Send(Command::SetPayload {
+                    kg: arg(1, "a mass in kg")? as f32,
+                })
+            }
+            "stop" | "disable" | "clear" | "status" => {
+                nargs(0)?;
+                Step::Send(match words[0] {
+                    "stop" => Command::Stop,
+                    "disable" => Command::Disable,
+                    "clear" => Command::ClearFault,
+                    _ => Command::Status,
+                })
+            }
+            "stream" => {
+                nargs(1)?;
+                let n = arg(1, "ticks per record")?;
+                if !(0.0..=u16::MAX as f64).contains(&n) || n.fract() != 0.0 {
+                    return Err(err(format!("`stream {n}`: a whole number 0..=65535")));
+                }
+                Step::Send(Command::Stream { every: n as u16 })
+            }
+            "wait" => {
+                nargs(1)?;
+                let s = arg(1, "seconds")?;
+                if !(0.0..=MAX_WAIT_S).contains(&s) {
+                    return Err(err(format!("`wait {s}`: 0 to {MAX_WAIT_S} s")));
+                }
+                Step::Wait(s)
+            }
+            "done" => {
+                nargs(1)?;
+                let settle_s = if words.len() > 1 {
+                    arg(1, "seconds")?
+                } else {
+                    0.4
+                };
+                if !(0.0..=MAX_WAIT_S).contains(&settle_s) {
+                    return Err(err(format!("`done {settle_s}`: 0 to {MAX_WAIT_S} s")));
+                }
+                Step::UntilDone {
+                    settle_s,
+                    max_s: 60.0,
+                }
+            }
+            "attach" => {
+                nargs(1)?;
+                let kg = arg(1, "a mass in kg")?;
+                if !(0.0..=1.0).contains(&kg) {
+                    return Err(err(format!("`attach {kg}`: 0 to 1 kg")));
+                }
+                Step::Attach(kg)
+            }
+            "fault" => {
+                nargs(1)?;
+                let n = arg(1, "ticks")?;
+                if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
+                    return Err(err(format!("`fault {n}`: a whole number of ticks")));
+                }
+                Step::AmpFault(n as u32)
+            }
+            other => return Err(err(format!("unknown command `{other}`"))),
+        };
+        steps.push(step);
+    }
+    Ok(steps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_command_reads_and_bad_lines_name_their_line() {
+        let steps = parse(
+            "# a session\nmove 45\nmove -90 0.4  # timed\nthrough 10,-30\npayload 0.025\n\
+             stop\ndisable\nclear\nstatus\nstream 10\nwait 0.5\ndone\ndone 1\nattach 0.02\nfault 3\n",
+        )
+        .unwrap();
+        assert_eq!(steps.len(), 14);
+        assert_eq!(
+            steps[1],
+            Step::Send(Command::MoveTo {
+                to_rad: (-90f64).to_radians() as f32,
+                time_s: Some(0.4)
+            })
+        );
+        match &steps[2] {
+            Step::Send(Command::MoveThrough { waypoints, time_s }) => {
+                assert_eq!(waypoints.len(), 2);
+                assert_eq!(*time_s, None);
+            }
+            other => panic!("{other:?}"),
+        }
+        for (text, says) in [
+            ("move", "needs"),
+            ("move x", "not a number"),
+            ("move 1 0", "positive"),
+            ("move 1 2 3", "at most"),
+            ("through 1,,2", "not an angle"),
+            ("through 1,2,3,4,5,6,7,8,9", "at most 8"),
+            ("stream -1", "whole number"),
+            ("wait 1e9", "0 to"),
+            ("jump 3", "unknown command"),
+            ("move nan", "not a number"),
+        ] {
+            let e = parse(&format!("status\n{text}")).unwrap_err();
+            assert_eq!(e.line, 2, "{text}");
+            assert!(e.message.contains(says), "{text}: {e}");
+        }
+    }
+}
