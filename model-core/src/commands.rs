@@ -9,7 +9,7 @@
 //! ([`Refusal::Busy`]), except `Stop`, `Disable`, `Status` and `Stream`: nothing queues.
 
 use crate::beam::{Beam, BeamParams, ParamError};
-use crate::controller::{Controller, Mode};
+use crate::controller::{Controller, Mode, Snapshot};
 use crate::error::{CommandError, PlanError};
 use crate::gains::{law_for, schedule_shaper, GainRow};
 use crate::law::{ControlLaw, LawKind};
@@ -111,37 +111,39 @@ impl<const N: usize> Commander<N> {
     }
 
     /// Carries out `req` on `ctl` and answers it. Changes nothing unless the reply says so.
+    /// The same as [`Commander::prepare`] on a snapshot of `ctl` followed at once by
+    /// [`Commander::apply`].
     pub fn handle(&mut self, ctl: &mut CommandedController, req: &Request) -> Reply {
+        let outcome = self
+            .prepare(&req.command, &ctl.snapshot())
+            .and_then(|action| self.apply(action, ctl));
         Reply {
             seq: req.seq,
-            outcome: match self.outcome(ctl, &req.command) {
-                Ok(o) => o,
-                Err(r) => Outcome::Refused(r),
-            },
+            outcome: outcome.unwrap_or_else(Outcome::Refused),
         }
     }
 
-    fn outcome(
-        &mut self,
-        ctl: &mut CommandedController,
-        command: &Command,
-    ) -> Result<Outcome, Refusal> {
-        let ready = |ctl: &CommandedController| match ctl.mode() {
+    /// The slow half of a command, which needs no access to the running controller: the
+    /// planning, the scheduling and the checks, from `snap` (a board runs it in its link
+    /// task while the tick goes on). A stop is cut at `snap.move_elapsed_s`; a caller that
+    /// applies it later passes a snapshot taken that much ahead (see [`Action::Stop`]).
+    pub fn prepare(&self, command: &Command, snap: &Snapshot) -> Result<Action, Refusal> {
+        let ready = match snap.mode {
             Mode::Fault => Err(Refusal::Faulted),
             Mode::Slewing => Err(Refusal::Busy),
             Mode::Idle | Mode::Holding => Ok(()),
         };
         match command {
             Command::MoveTo { to_rad, time_s } => {
-                ready(ctl)?;
+                ready?;
                 let target = [Waypoint {
                     rad: *to_rad,
                     at_s: None,
                 }];
-                self.start(ctl, &target, *time_s)
+                self.plan(snap, &target, *time_s)
             }
             Command::MoveThrough { waypoints, time_s } => {
-                ready(ctl)?;
+                ready?;
                 let mut points = [Waypoint {
                     rad: 0.0,
                     at_s: None,
@@ -152,10 +154,10 @@ impl<const N: usize> Commander<N> {
                         at_s: w.at_s,
                     };
                 }
-                self.start(ctl, &points[..waypoints.len()], *time_s)
+                self.plan(snap, &points[..waypoints.len()], *time_s)
             }
             Command::SetPayload { kg } => {
-                ready(ctl)?;
+                ready?;
                 if !(kg.is_finite() && (0.0..=MAX_PAYLOAD_KG).contains(kg)) {
                     return Err(Refusal::BadArgument);
                 }
@@ -166,65 +168,109 @@ impl<const N: usize> Commander<N> {
                             Refusal::BadArgument
                         }
                     })?;
-                ctl.set_law(law).map_err(refusal)?;
-                (self.payload_kg, self.shaper, self.limits) = (*kg, shaper, limits);
+                Ok(Action::SetPayload(Schedule {
+                    payload_kg: *kg,
+                    law,
+                    shaper,
+                    limits,
+                }))
+            }
+            Command::Stop => {
+                if snap.mode != Mode::Slewing {
+                    return Err(Refusal::NotMoving);
+                }
+                let current = self.current.as_ref().ok_or(Refusal::NotMoving)?;
+                // The next tick evaluates the move at the elapsed time (it has counted this
+                // tick).
+                let stopped =
+                    plan_stop(current, snap.move_elapsed_s, &self.limits).map_err(plan_refusal)?;
+                Ok(Action::Stop {
+                    plan: stopped,
+                    cut_s: snap.move_elapsed_s,
+                })
+            }
+            Command::Disable => Ok(Action::Disable),
+            Command::ClearFault => Ok(Action::ClearFault),
+            Command::Status => Ok(Action::Status),
+            Command::Stream { every } => Ok(Action::Stream(*every)),
+        }
+    }
+
+    /// The quick half: swaps what [`Commander::prepare`] made into `ctl`, whole (a board
+    /// runs it with the tick held off for the copy, microseconds). Rechecks the state, which
+    /// may have moved on since the snapshot: a move that ended or a fault latched refuses
+    /// what no longer fits, and a stop whose cut time has passed is [`Refusal::Busy`] (take a
+    /// new snapshot further ahead and prepare again).
+    pub fn apply(
+        &mut self,
+        action: Action,
+        ctl: &mut CommandedController,
+    ) -> Result<Outcome, Refusal> {
+        match action {
+            Action::Start(plan) => {
+                // Checked before anything is swapped, so a refusal changes nothing.
+                match ctl.mode() {
+                    Mode::Fault => return Err(Refusal::Faulted),
+                    Mode::Slewing => return Err(Refusal::Busy),
+                    Mode::Idle | Mode::Holding => {}
+                }
+                let duration_s = plan.shaped.duration_s();
+                ctl.set_spline(plan.shaped.clone()).map_err(refusal)?;
+                ctl.start_move().map_err(refusal)?;
+                self.current = Some(plan);
+                Ok(Outcome::Moving { duration_s })
+            }
+            Action::Stop { plan, cut_s } => {
+                if ctl.mode() != Mode::Slewing {
+                    return Err(Refusal::NotMoving);
+                }
+                if ctl.move_elapsed_s() > cut_s {
+                    return Err(Refusal::Busy);
+                }
+                let duration_s = plan.shaped.duration_s();
+                ctl.replace_move(plan.shaped.clone()).map_err(refusal)?;
+                self.current = Some(plan);
+                Ok(Outcome::Moving { duration_s })
+            }
+            Action::SetPayload(s) => {
+                ctl.set_law(s.law).map_err(refusal)?;
+                (self.payload_kg, self.shaper, self.limits) = (s.payload_kg, s.shaper, s.limits);
                 Ok(Outcome::Done)
             }
-            Command::Stop => self.stop(ctl),
-            Command::Disable => {
+            Action::Disable => {
                 ctl.disable();
                 Ok(Outcome::Done)
             }
-            Command::ClearFault => {
+            Action::ClearFault => {
                 if ctl.mode() == Mode::Fault {
                     ctl.reset();
                 }
                 Ok(Outcome::Done)
             }
-            Command::Status => Ok(Outcome::Status(self.status(ctl))),
-            Command::Stream { every } => {
-                self.stream_every = *every;
+            Action::Status => Ok(Outcome::Status(self.status(ctl))),
+            Action::Stream(every) => {
+                self.stream_every = every;
                 Ok(Outcome::Done)
             }
         }
     }
 
-    /// Plans the move from the hub's last measured angle and starts it.
-    fn start(
-        &mut self,
-        ctl: &mut CommandedController,
+    /// Plans the move from the hub's last measured angle.
+    fn plan(
+        &self,
+        snap: &Snapshot,
         waypoints: &[Waypoint],
         time_s: Option<f32>,
-    ) -> Result<Outcome, Refusal> {
-        let plan = plan_through(
-            ctl.theta_rad(),
+    ) -> Result<Action, Refusal> {
+        plan_through(
+            snap.theta_rad,
             waypoints,
             time_s,
             &self.shaper,
             &self.limits,
         )
-        .map_err(plan_refusal)?;
-        let duration_s = plan.shaped.duration_s();
-        ctl.set_spline(plan.shaped.clone()).map_err(refusal)?;
-        ctl.start_move().map_err(refusal)?;
-        self.current = Some(plan);
-        Ok(Outcome::Moving { duration_s })
-    }
-
-    /// Stops the running move: its base is cut at the next tick's time and brought to rest
-    /// ([`plan_stop`]), shaped like the move; the shaped reference is unchanged up to then.
-    fn stop(&mut self, ctl: &mut CommandedController) -> Result<Outcome, Refusal> {
-        if ctl.mode() != Mode::Slewing {
-            return Err(Refusal::NotMoving);
-        }
-        let current = self.current.as_ref().ok_or(Refusal::NotMoving)?;
-        // The next tick evaluates the move at the elapsed time (it has counted this tick).
-        let stopped =
-            plan_stop(current, ctl.move_elapsed_s(), &self.limits).map_err(plan_refusal)?;
-        let duration_s = stopped.shaped.duration_s();
-        ctl.replace_move(stopped.shaped.clone()).map_err(refusal)?;
-        self.current = Some(stopped);
-        Ok(Outcome::Moving { duration_s })
+        .map(Action::Start)
+        .map_err(plan_refusal)
     }
 
     /// The drive's state.
@@ -242,6 +288,44 @@ impl<const N: usize> Commander<N> {
             stream_every: self.stream_every,
         }
     }
+}
+
+/// A command made ready to swap in: the output of [`Commander::prepare`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Start this move.
+    Start(Plan),
+    /// Replace the running move by this stop, cut at `cut_s` into the move; only while
+    /// the move has not passed it.
+    Stop {
+        /// The stopped move.
+        plan: Plan,
+        /// Where it leaves the running move, s since the move started.
+        cut_s: f32,
+    },
+    /// Use these gains, shaper and limits.
+    SetPayload(Schedule),
+    /// Torque off.
+    Disable,
+    /// Clear latched faults.
+    ClearFault,
+    /// Report.
+    Status,
+    /// Set the telemetry decimation.
+    Stream(u16),
+}
+
+/// What is scheduled for a payload.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Schedule {
+    /// The payload, kg.
+    pub payload_kg: f32,
+    /// Its law.
+    pub law: ControlLaw,
+    /// Its shaper.
+    pub shaper: Shaper,
+    /// Its planner limits.
+    pub limits: Limits,
 }
 
 fn plan_refusal(e: PlanError) -> Refusal {
@@ -288,4 +372,69 @@ fn configure<const N: usize>(
         schedule_shaper(table, kind, payload_kg),
         Limits::for_model(&model),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::controller::{ControllerSettings, RawMeasurement};
+    use crate::spline::Spline;
+
+    fn drive() -> (Commander<3>, CommandedController) {
+        let (commander, law) = Commander::<3>::try_new(
+            BeamParams::aluminium(),
+            crate::gains::GAIN_TABLE,
+            LawKind::PdFf,
+            0.0,
+        )
+        .unwrap();
+        let rest = Spline::try_build(&[(0.0, 0.0), (1.0, 0.0)]).unwrap();
+        let ctl = Controller::try_build(ControllerSettings::default(), law, rest).unwrap();
+        (commander, ctl)
+    }
+
+    #[test]
+    fn an_action_prepared_earlier_is_refused_whole_when_the_state_has_moved_on() {
+        let (mut c, mut ctl) = drive();
+        let raw = RawMeasurement::default();
+        ctl.step(&raw);
+        // A move prepared while idle, applied after a fault latched: refused, nothing swapped.
+        let go = Command::MoveTo {
+            to_rad: 0.5,
+            time_s: None,
+        };
+        let action = c.prepare(&go, &ctl.snapshot()).unwrap();
+        let faulted = RawMeasurement {
+            amp_fault: true,
+            ..raw
+        };
+        ctl.step(&faulted);
+        let before = (c.clone(), ctl.clone());
+        assert_eq!(c.apply(action, &mut ctl), Err(Refusal::Faulted));
+        assert!(before == (c.clone(), ctl.clone()));
+        ctl.reset();
+        ctl.step(&raw);
+        // A stop prepared for a time the move has already passed: refused, nothing swapped.
+        let action = c.prepare(&go, &ctl.snapshot()).unwrap();
+        assert!(matches!(
+            c.apply(action, &mut ctl),
+            Ok(Outcome::Moving { .. })
+        ));
+        for _ in 0..20 {
+            ctl.step(&raw);
+        }
+        let stop = c.prepare(&Command::Stop, &ctl.snapshot()).unwrap();
+        for _ in 0..3 {
+            ctl.step(&raw);
+        }
+        let before = (c.clone(), ctl.clone());
+        assert_eq!(c.apply(stop, &mut ctl), Err(Refusal::Busy));
+        assert!(before == (c.clone(), ctl.clone()));
+        // Prepared again from a fresh snapshot, it applies.
+        let stop = c.prepare(&Command::Stop, &ctl.snapshot()).unwrap();
+        assert!(matches!(
+            c.apply(stop, &mut ctl),
+            Ok(Outcome::Moving { .. })
+        ));
+    }
 }

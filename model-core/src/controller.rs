@@ -48,6 +48,17 @@ pub enum Mode {
     Fault,
 }
 
+/// The controller's state as a command sees it ([`Controller::snapshot`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Snapshot {
+    /// The mode.
+    pub mode: Mode,
+    /// The hub angle of the last tick, rad.
+    pub theta_rad: f32,
+    /// Time into the move, s: where the next tick evaluates it.
+    pub move_elapsed_s: f32,
+}
+
 /// A set of latched faults (bit flags).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -379,6 +390,16 @@ impl<const K: usize> Controller<K> {
         }
         self.cfg.spline = spline;
         Ok(())
+    }
+
+    /// What a command needs to know of the controller, copied (a board takes it from the
+    /// tick's resource in a few instructions and plans from it outside).
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            mode: self.st.mode,
+            theta_rad: self.st.theta,
+            move_elapsed_s: self.move_elapsed_s(),
+        }
     }
 
     /// Torque off now: back to `Idle` (a latched fault stays latched).
