@@ -126,6 +126,37 @@ pub enum Refusal {
     NoGains,
 }
 
+/// Everything a commanded drive sends on its link: replies, and telemetry while streaming.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Uplink {
+    /// The answer to a request.
+    Reply(Reply),
+    /// One tick's telemetry (every `Stream { every }` ticks).
+    Record(Record),
+}
+
+/// One tick's telemetry on the link: what `beam calibrate` needs, and the link's own
+/// health.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// Tick number since power-on.
+    pub tick: u32,
+    /// Torque commanded, N m.
+    pub torque_nm: f32,
+    /// Hub angle, rad.
+    pub theta_rad: f32,
+    /// Reference angle, rad.
+    pub theta_ref_rad: f32,
+    /// Root strain, offset removed.
+    pub strain: f32,
+    /// Controller mode: 0 idle, 1 slewing, 2 holding, 3 fault.
+    pub mode: u8,
+    /// Latched fault bits.
+    pub faults: u8,
+    /// Records the drive has had to drop so far (the link was full).
+    pub dropped: u32,
+}
+
 /// The drive's state, as [`Command::Status`] reports it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Status {

@@ -12,4 +12,5 @@ pub mod amplifier;
 pub mod config;
 pub mod drive;
 pub mod fakes;
+pub mod link;
 pub mod operator;
