@@ -12,8 +12,10 @@ use model_core::{
     ModalModel, ModelError, ParamError, ShaperError, Spline, SplineError, Timing,
 };
 
-/// Knots per move: the paper's moves are single quintic segments.
-pub const MOVE_KNOTS: usize = 2 * model_core::shaper::MAX_IMPULSES;
+/// Knots per move: room for any planned move, shaped (the button's moves, a shaped quintic,
+/// use six). One capacity for both kinds of move keeps one controller type in the binary,
+/// which the instruction counts showed to matter (two made LLVM inline less in the tick).
+pub const MOVE_KNOTS: usize = model_core::planner::SHAPED_PLAN_KNOTS;
 /// The payload this drive carries, kg.
 pub const PAYLOAD_KG: f32 = 0.0;
 /// The control law the drive runs.
