@@ -258,7 +258,8 @@ impl FrameReader {
         Some(if overflow {
             Err(FrameError::TooLong)
         } else {
-            Ok(&mut self.buf[..len])
+            // `len` never passes the buffer; `get` keeps the panic path out all the same.
+            self.buf.get_mut(..len).ok_or(FrameError::TooLong)
         })
     }
 
@@ -268,7 +269,8 @@ impl FrameReader {
     }
 }
 
-/// Encodes `msg` into `out` and returns the frame including its zero delimiter.
+/// Encodes `msg` into `out` and returns the frame including its zero delimiter. (Slices are
+/// taken with `get`, so no path here can panic: the drive runs it in an interrupt.)
 pub fn encode<'a, T: Serialize>(
     msg: &T,
     out: &'a mut [u8; MAX_FRAME + 1],
@@ -278,13 +280,18 @@ pub fn encode<'a, T: Serialize>(
         .map_err(|_| FrameError::Encode)?
         .len();
     raw[0] = VERSION;
-    raw[1] = n as u8;
-    let crc = CRC.checksum(&raw[..2 + n]);
-    raw[2 + n..6 + n].copy_from_slice(&crc.to_le_bytes());
-    let len =
-        cobs::try_encode(&raw[..6 + n], &mut out[..MAX_FRAME]).map_err(|_| FrameError::Encode)?;
-    out[len] = 0;
-    Ok(&out[..=len])
+    raw[1] = u8::try_from(n).map_err(|_| FrameError::Encode)?;
+    let crc = CRC.checksum(raw.get(..2 + n).ok_or(FrameError::Encode)?);
+    raw.get_mut(2 + n..6 + n)
+        .ok_or(FrameError::Encode)?
+        .copy_from_slice(&crc.to_le_bytes());
+    let len = cobs::try_encode(
+        raw.get(..6 + n).ok_or(FrameError::Encode)?,
+        &mut out[..MAX_FRAME],
+    )
+    .map_err(|_| FrameError::Encode)?;
+    *out.get_mut(len).ok_or(FrameError::Encode)? = 0;
+    out.get(..=len).ok_or(FrameError::Encode)
 }
 
 /// Decodes one frame (the bytes before its zero delimiter, decoded in place) as a `T`.
@@ -293,27 +300,36 @@ pub fn decode<'de, T: Deserialize<'de>>(frame: &'de mut [u8]) -> Result<T, Frame
         return Err(FrameError::TooLong);
     }
     let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
-    let raw = &frame[..n];
+    let raw: &[u8] = frame.get(..n).ok_or(FrameError::Cobs)?;
+    let (Some(&version), Some(&declared)) = (raw.first(), raw.get(1)) else {
+        return Err(FrameError::Short { len: n as u16 });
+    };
     if n < 6 {
         return Err(FrameError::Short { len: n as u16 });
     }
-    if raw[0] != VERSION {
-        return Err(FrameError::Version { got: raw[0] });
+    if version != VERSION {
+        return Err(FrameError::Version { got: version });
     }
     let actual = n - 6;
-    if raw[1] as usize != actual {
+    if declared as usize != actual {
         return Err(FrameError::Length {
-            declared: raw[1],
+            declared,
             actual: actual as u16,
         });
     }
-    let (body, crc) = raw.split_at(n - 4);
-    let got = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+    let (body, crc) = raw
+        .split_at_checked(n - 4)
+        .ok_or(FrameError::Short { len: n as u16 })?;
+    let crc: [u8; 4] = crc
+        .try_into()
+        .map_err(|_| FrameError::Short { len: n as u16 })?;
+    let got = u32::from_le_bytes(crc);
     let computed = CRC.checksum(body);
     if got != computed {
         return Err(FrameError::Crc { got, computed });
     }
-    let (msg, rest) = postcard::take_from_bytes(&body[2..]).map_err(|_| FrameError::Payload)?;
+    let payload = body.get(2..).ok_or(FrameError::Short { len: n as u16 })?;
+    let (msg, rest) = postcard::take_from_bytes(payload).map_err(|_| FrameError::Payload)?;
     if !rest.is_empty() {
         return Err(FrameError::TrailingBytes);
     }

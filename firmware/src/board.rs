@@ -27,6 +27,7 @@ use stm32f4xx_hal::{
     prelude::*,
     qei::Qei,
     rcc::Config,
+    serial::{self, Rx1, Tx1},
     spi::{self, Spi},
     timer::{CounterHz, Event, PwmChannel, SysDelay},
     watchdog::IndependentWatchdog,
@@ -84,6 +85,12 @@ pub struct Board {
     pub loop_timer: CounterHz<pac::TIM2>,
     /// Fed once per tick.
     pub watchdog: IndependentWatchdog,
+    /// The command link's USART1 (PA9 TX, PA10 RX) at `firmware::link::BAUD`.
+    pub link_tx: Tx1,
+    /// See `link_tx`.
+    pub link_rx: Rx1,
+    /// The command handler, with the compiled-in law and payload.
+    pub commander: model_core::commands::Commander<3>,
 }
 
 /// Why the board did not come up. The amplifier is never enabled in any of these cases.
@@ -91,6 +98,8 @@ pub struct Board {
 pub enum BringUpError {
     /// The compiled-in configuration.
     Config(config::BuildError),
+    /// The command link's USART could not be configured.
+    Link,
     /// The loop timer refused the rate.
     LoopTimer,
     /// The amplifier's pins (infallible on this MCU; kept for completeness).
@@ -176,6 +185,25 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         sequence,
     );
 
+    // The command link: USART1 on APB2 (84 MHz), interrupt-driven.
+    let link = dp
+        .USART1
+        .serial(
+            (gpioa.pa9, gpioa.pa10),
+            serial::Config::default().baudrate(firmware::link::BAUD.bps()),
+            &mut rcc,
+        )
+        .map_err(|_| BringUpError::Link)?;
+    let (link_tx, mut link_rx) = link.split();
+    link_rx.listen();
+    let (commander, _) = model_core::commands::Commander::<3>::try_new(
+        model_core::BeamParams::aluminium(),
+        model_core::gains::GAIN_TABLE,
+        config::CONTROLLER,
+        config::PAYLOAD_KG,
+    )
+    .map_err(|e| BringUpError::Config(config::BuildError::Setup(e)))?;
+
     let mut watchdog = IndependentWatchdog::new(dp.IWDG);
     // Halting in the debugger must not reset the drive.
     watchdog.stop_on_debug(&dp.DBGMCU, true);
@@ -192,6 +220,9 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         operator,
         loop_timer,
         watchdog,
+        link_tx,
+        link_rx,
+        commander,
     })
 }
 

@@ -231,4 +231,24 @@ where
         }
         reply
     }
+
+    /// What a command needs to know of the controller ([`Controller::snapshot`]).
+    pub fn snapshot(&self) -> model_core::Snapshot {
+        self.controller.snapshot()
+    }
+
+    /// Swaps in an action prepared outside the tick
+    /// ([`Commander::prepare`](model_core::commands::Commander::prepare)), whole.
+    pub fn apply<const N: usize>(
+        &mut self,
+        commander: &mut model_core::commands::Commander<N>,
+        action: model_core::commands::Action,
+    ) -> Result<beam_wire::command::Outcome, beam_wire::command::Refusal> {
+        let clear = action == model_core::commands::Action::ClearFault;
+        let outcome = commander.apply(action, &mut self.controller);
+        if clear {
+            self.driver_failed = false;
+        }
+        outcome
+    }
 }

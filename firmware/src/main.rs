@@ -19,21 +19,42 @@ mod board;
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
 mod app {
-    use crate::board::{self, Board};
+    use crate::board::{self, Board, BoardDrive, BoardOperator};
+    use beam_wire::command::{Outcome, Record, Refusal, Reply};
     use firmware::drive::Telemetry;
+    use firmware::link::Link;
     use heapless::spsc::{Consumer, Producer, Queue};
+    use model_core::commands::Commander;
+    use stm32f4xx_hal::pac::Interrupt;
     use stm32f4xx_hal::prelude::*;
-    use stm32f4xx_hal::timer::Flag;
+    use stm32f4xx_hal::serial::{Rx1, RxISR, Tx1, TxISR, TxListen};
+    use stm32f4xx_hal::timer::{CounterHz, Flag};
+    use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
     /// Telemetry samples buffered between the tick and `idle` (one slot stays empty).
     const TELEMETRY_SLOTS: usize = 64;
+    /// The link's transmit ring, bytes (about 25 record frames).
+    const LINK_TX: usize = 1024;
+    /// How far ahead of the tick a stop is cut, s: room for planning it in `idle` (it is
+    /// planned again from a fresh snapshot if the move has passed this point meanwhile).
+    const STOP_LEAD_S: f32 = 0.005;
 
     #[shared]
-    struct Shared {}
+    struct Shared {
+        /// Owned by the tick (the highest priority, so its lock costs nothing); `idle` locks
+        /// it only to copy a snapshot and to swap in a prepared move (microseconds).
+        drive: BoardDrive,
+        link: Link<LINK_TX>,
+    }
 
     #[local]
     struct Local {
-        board: Board,
+        operator: BoardOperator,
+        loop_timer: CounterHz<stm32f4xx_hal::pac::TIM2>,
+        watchdog: IndependentWatchdog,
+        link_tx: Tx1,
+        link_rx: Rx1,
+        commander: Commander<3>,
         telemetry_in: Producer<'static, Telemetry, TELEMETRY_SLOTS>,
         telemetry_out: Consumer<'static, Telemetry, TELEMETRY_SLOTS>,
     }
@@ -45,41 +66,132 @@ mod app {
             Err(e) => crate::halt(e),
         };
         defmt::info!(
-            "drive up: {} Hz loop, gains `{}` at {} kg",
+            "drive up: {} Hz loop, gains `{}` at {} kg, commands at {} baud",
             board::LOOP_HZ,
             firmware::config::CONTROLLER.name(),
-            firmware::config::PAYLOAD_KG
+            firmware::config::PAYLOAD_KG,
+            firmware::link::BAUD
         );
+        let Board {
+            drive,
+            operator,
+            loop_timer,
+            watchdog,
+            link_tx,
+            link_rx,
+            commander,
+        } = board;
         let (telemetry_in, telemetry_out) = cx.local.queue.split();
         (
-            Shared {},
+            Shared {
+                drive,
+                link: Link::new(),
+            },
             Local {
-                board,
+                operator,
+                loop_timer,
+                watchdog,
+                link_tx,
+                link_rx,
+                commander,
                 telemetry_in,
                 telemetry_out,
             },
         )
     }
 
-    #[task(binds = TIM2, priority = 2, local = [board, telemetry_in])]
-    fn tick(cx: tick::Context) {
-        let b = cx.local.board;
-        b.loop_timer.clear_flags(Flag::Update);
-        let t = b.drive.tick();
-        if let Some(command) = b.operator.poll(t.theta_rad) {
-            // A refused command (busy, faulted) changes nothing; the telemetry shows why.
-            let _ = b.drive.command(command);
-        }
-        b.watchdog.feed();
+    #[task(binds = TIM2, priority = 3, shared = [drive], local = [operator, loop_timer, watchdog, telemetry_in])]
+    fn tick(mut cx: tick::Context) {
+        cx.local.loop_timer.clear_flags(Flag::Update);
+        let operator = cx.local.operator;
+        let t = cx.shared.drive.lock(|drive| {
+            let t = drive.tick();
+            if let Some(command) = operator.poll(t.theta_rad) {
+                // A refused command (busy, faulted) changes nothing; the telemetry shows why.
+                let _ = drive.command(command);
+            }
+            t
+        });
+        cx.local.watchdog.feed();
         let _ = cx.local.telemetry_in.enqueue(t);
     }
 
-    #[idle(local = [telemetry_out])]
-    fn idle(cx: idle::Context) -> ! {
+    /// The link's bytes, both ways, below the tick and above `idle`.
+    #[task(binds = USART1, priority = 2, shared = [link], local = [link_tx, link_rx])]
+    fn link_bytes(mut cx: link_bytes::Context) {
+        let (rx, tx) = (cx.local.link_rx, cx.local.link_tx);
+        cx.shared.link.lock(|link| {
+            while rx.is_rx_not_empty() {
+                match rx.read() {
+                    Ok(b) => link.receive_byte(b),
+                    // Overrun, noise, framing: the frame it was in fails its CRC.
+                    Err(_) => link.receive_byte(0),
+                }
+            }
+            while tx.is_tx_empty() {
+                match link.next_tx_byte() {
+                    Some(b) => {
+                        let _ = tx.write(b);
+                    }
+                    None => break,
+                }
+            }
+            if link.tx_pending() > 0 {
+                tx.listen();
+            } else {
+                tx.unlisten();
+            }
+        });
+    }
+
+    /// Telemetry to defmt and, when streaming, to the link; commands prepared here (the
+    /// planning) and swapped into the drive under a short lock.
+    #[idle(shared = [drive, link], local = [telemetry_out, commander])]
+    fn idle(mut cx: idle::Context) -> ! {
+        let commander = cx.local.commander;
         loop {
             if let Some(t) = cx.local.telemetry_out.dequeue() {
                 t.log();
+                let every = commander.stream_every() as u32;
+                if every > 0 && t.tick % every == 0 {
+                    let record = Record {
+                        tick: t.tick,
+                        torque_nm: t.torque_nm,
+                        theta_rad: t.theta_rad,
+                        theta_ref_rad: t.theta_ref_rad,
+                        strain: t.strain,
+                        mode: t.mode as u8,
+                        faults: t.faults.0,
+                        dropped: 0,
+                    };
+                    cx.shared.link.lock(|link| link.record(&record));
+                    rtic::pend(Interrupt::USART1);
+                }
             }
+            let Some(request) = cx.shared.link.lock(|link| link.next_request()) else {
+                continue;
+            };
+            let mut outcome = Err(Refusal::Busy);
+            // A stop is cut a little ahead of the tick; if planning took longer than that,
+            // it is planned again from a fresh snapshot.
+            for _ in 0..3 {
+                let mut snap = cx.shared.drive.lock(|drive| drive.snapshot());
+                snap.move_elapsed_s += STOP_LEAD_S;
+                outcome = commander
+                    .prepare(&request.command, &snap)
+                    .and_then(|action| {
+                        cx.shared.drive.lock(|drive| drive.apply(commander, action))
+                    });
+                if outcome != Err(Refusal::Busy) {
+                    break;
+                }
+            }
+            let reply = Reply {
+                seq: request.seq,
+                outcome: outcome.unwrap_or_else(Outcome::Refused),
+            };
+            cx.shared.link.lock(|link| link.reply(&reply));
+            rtic::pend(Interrupt::USART1);
         }
     }
 }

@@ -221,7 +221,13 @@ impl<const N: usize> Commander<N> {
                 Ok(Outcome::Moving { duration_s })
             }
             Action::Stop { plan, cut_s } => {
-                if ctl.mode() != Mode::Slewing {
+                // Only the move this handler started can be stopped by cutting its base (a
+                // move started otherwise, by a button, has no base here).
+                let running_ours = self
+                    .current
+                    .as_ref()
+                    .is_some_and(|c| ctl.spline() == &c.shaped);
+                if ctl.mode() != Mode::Slewing || !running_ours {
                     return Err(Refusal::NotMoving);
                 }
                 if ctl.move_elapsed_s() > cut_s {

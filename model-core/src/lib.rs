@@ -86,7 +86,7 @@ pub use beam::{Beam, BeamParams, ParamError, Preset};
 
 pub use controller::{
     CommandError, ConfigError, Controller, ControllerSettings, FaultFlags, Mode, RawMeasurement,
-    TorqueCommand,
+    Snapshot, TorqueCommand,
 };
 pub use law::{
     ControlLaw, Law, LawKind, LawState, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains,

@@ -136,7 +136,7 @@ pub fn sym_eigenvalues<const N: usize>(a: &Mat<N>) -> [f64; N] {
     for (i, e) in ev.iter_mut().enumerate() {
         *e = m[i][i];
     }
-    ev.sort_unstable_by(f64::total_cmp);
+    insertion_sort(&mut ev);
     ev
 }
 
@@ -169,6 +169,19 @@ pub fn generalized_eigenvalues<const N: usize>(k: &Mat<N>, m: &Mat<N>) -> Option
         }
     }
     Some(sym_eigenvalues(&c))
+}
+
+/// Sorts a few numbers in place, ascending by `total_cmp`. The library's sort would do, but
+/// its pattern-defeating quicksort is about 8 KiB of flash on the drive for lists of at most
+/// 30 elements, where insertion sort is as fast.
+pub fn insertion_sort(v: &mut [f64]) {
+    for i in 1..v.len() {
+        let mut j = i;
+        while j > 0 && v[j - 1].total_cmp(&v[j]).is_gt() {
+            v.swap(j - 1, j);
+            j -= 1;
+        }
+    }
 }
 
 #[cfg(test)]

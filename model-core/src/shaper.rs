@@ -261,7 +261,7 @@ pub fn shaped_quintic<const K: usize>(
 /// Sorts `breaks` and merges those closer than [`MIN_BREAK_S`] into the first of each run,
 /// keeping the last break itself (the move's end); returns how many are left, at the front.
 fn merge_breaks(breaks: &mut [f64]) -> usize {
-    breaks.sort_unstable_by(|a, b| a.total_cmp(b));
+    crate::linalg::insertion_sort(breaks);
     let Some(&last) = breaks.last() else {
         return 0;
     };

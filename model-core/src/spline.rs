@@ -245,72 +245,77 @@ impl<const K: usize> Spline<K> {
     /// turning point and the nearest sample (from the exact jerk and acceleration bounds).
     /// For planning, outside the tick.
     pub fn peaks(&self) -> Peaks {
-        let mut p = Peaks {
-            min_pos: self.start.min(self.end),
-            max_pos: self.start.max(self.end),
-            max_abs_vel: 0.0,
-            max_abs_acc: 0.0,
-        };
-        for seg in &self.segments {
-            let d = seg.d.map(|x| x as f64);
-            let h = seg.h_s as f64;
-            // p''(tau) = 2 d2 + 6 d3 tau + 12 d4 tau^2 + 20 d5 tau^3; its turning points
-            // solve 6 d3 + 24 d4 tau + 60 d5 tau^2 = 0.
-            let acc = |t: f64| {
-                (2.0 * d[2] + t * (6.0 * d[3] + t * (12.0 * d[4] + t * 20.0 * d[5]))) / (h * h)
-            };
-            let mut a_max = libm::fabs(acc(0.0)).max(libm::fabs(acc(1.0)));
-            let (qa, qb, qc) = (60.0 * d[5], 24.0 * d[4], 6.0 * d[3]);
-            let mut roots = [f64::NAN; 2];
-            if qa != 0.0 {
-                let disc = qb * qb - 4.0 * qa * qc;
-                if disc >= 0.0 {
-                    let r = libm::sqrt(disc);
-                    roots = [(-qb + r) / (2.0 * qa), (-qb - r) / (2.0 * qa)];
-                }
-            } else if qb != 0.0 {
-                roots[0] = -qc / qb;
-            }
-            for t in roots {
-                if (0.0..=1.0).contains(&t) {
-                    a_max = a_max.max(libm::fabs(acc(t)));
-                }
-            }
-            // The jerk is a quadratic in tau, extreme at the ends or at its vertex.
-            let jerk = |t: f64| (6.0 * d[3] + t * (24.0 * d[4] + t * 60.0 * d[5])) / (h * h * h);
-            let mut j_max = libm::fabs(jerk(0.0)).max(libm::fabs(jerk(1.0)));
-            if d[5] != 0.0 {
-                let vertex = -24.0 * d[4] / (120.0 * d[5]);
-                if (0.0..=1.0).contains(&vertex) {
-                    j_max = j_max.max(libm::fabs(jerk(vertex)));
-                }
-            }
-            let vel = |t: f64| {
-                (d[1] + t * (2.0 * d[2] + t * (3.0 * d[3] + t * (4.0 * d[4] + t * 5.0 * d[5])))) / h
-            };
-            let pos = |t: f64| d[0] + t * (d[1] + t * (d[2] + t * (d[3] + t * (d[4] + t * d[5]))));
-            // An extreme inside the segment is a turning point (zero derivative), so from
-            // there to the nearest sample, at most dt/2 away, the value changes by at most
-            // (bound on its second derivative) * (dt/2)^2 / 2; an extreme at an end is a
-            // sample.
-            let dt = h / PEAK_SAMPLES as f64;
-            let (mut v_max, mut lo, mut hi) = (0.0f64, f64::INFINITY, f64::NEG_INFINITY);
-            for i in 0..=PEAK_SAMPLES {
-                let t = i as f64 / PEAK_SAMPLES as f64;
-                v_max = v_max.max(libm::fabs(vel(t)));
-                let x = pos(t);
-                lo = lo.min(x);
-                hi = hi.max(x);
-            }
-            let v_bound = v_max + j_max * dt * dt / 8.0;
-            let p_slack = a_max * dt * dt / 8.0;
-            p.max_abs_acc = p.max_abs_acc.max(a_max as f32);
-            p.max_abs_vel = p.max_abs_vel.max(v_bound as f32);
-            p.min_pos = p.min_pos.min((lo - p_slack) as f32);
-            p.max_pos = p.max_pos.max((hi + p_slack) as f32);
-        }
-        p
+        peaks_of(&self.segments, self.start, self.end)
     }
+}
+
+/// [`Spline::peaks`], for any capacity (one copy in the firmware, not one per `K`).
+fn peaks_of(segments: &[Segment], start: f32, end: f32) -> Peaks {
+    let mut p = Peaks {
+        min_pos: start.min(end),
+        max_pos: start.max(end),
+        max_abs_vel: 0.0,
+        max_abs_acc: 0.0,
+    };
+    for seg in segments {
+        let d = seg.d.map(|x| x as f64);
+        let h = seg.h_s as f64;
+        // p''(tau) = 2 d2 + 6 d3 tau + 12 d4 tau^2 + 20 d5 tau^3; its turning points
+        // solve 6 d3 + 24 d4 tau + 60 d5 tau^2 = 0.
+        let acc = |t: f64| {
+            (2.0 * d[2] + t * (6.0 * d[3] + t * (12.0 * d[4] + t * 20.0 * d[5]))) / (h * h)
+        };
+        let mut a_max = libm::fabs(acc(0.0)).max(libm::fabs(acc(1.0)));
+        let (qa, qb, qc) = (60.0 * d[5], 24.0 * d[4], 6.0 * d[3]);
+        let mut roots = [f64::NAN; 2];
+        if qa != 0.0 {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc >= 0.0 {
+                let r = libm::sqrt(disc);
+                roots = [(-qb + r) / (2.0 * qa), (-qb - r) / (2.0 * qa)];
+            }
+        } else if qb != 0.0 {
+            roots[0] = -qc / qb;
+        }
+        for t in roots {
+            if (0.0..=1.0).contains(&t) {
+                a_max = a_max.max(libm::fabs(acc(t)));
+            }
+        }
+        // The jerk is a quadratic in tau, extreme at the ends or at its vertex.
+        let jerk = |t: f64| (6.0 * d[3] + t * (24.0 * d[4] + t * 60.0 * d[5])) / (h * h * h);
+        let mut j_max = libm::fabs(jerk(0.0)).max(libm::fabs(jerk(1.0)));
+        if d[5] != 0.0 {
+            let vertex = -24.0 * d[4] / (120.0 * d[5]);
+            if (0.0..=1.0).contains(&vertex) {
+                j_max = j_max.max(libm::fabs(jerk(vertex)));
+            }
+        }
+        let vel = |t: f64| {
+            (d[1] + t * (2.0 * d[2] + t * (3.0 * d[3] + t * (4.0 * d[4] + t * 5.0 * d[5])))) / h
+        };
+        let pos = |t: f64| d[0] + t * (d[1] + t * (d[2] + t * (d[3] + t * (d[4] + t * d[5]))));
+        // An extreme inside the segment is a turning point (zero derivative), so from
+        // there to the nearest sample, at most dt/2 away, the value changes by at most
+        // (bound on its second derivative) * (dt/2)^2 / 2; an extreme at an end is a
+        // sample.
+        let dt = h / PEAK_SAMPLES as f64;
+        let (mut v_max, mut lo, mut hi) = (0.0f64, f64::INFINITY, f64::NEG_INFINITY);
+        for i in 0..=PEAK_SAMPLES {
+            let t = i as f64 / PEAK_SAMPLES as f64;
+            v_max = v_max.max(libm::fabs(vel(t)));
+            let x = pos(t);
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        let v_bound = v_max + j_max * dt * dt / 8.0;
+        let p_slack = a_max * dt * dt / 8.0;
+        p.max_abs_acc = p.max_abs_acc.max(a_max as f32);
+        p.max_abs_vel = p.max_abs_vel.max(v_bound as f32);
+        p.min_pos = p.min_pos.min((lo - p_slack) as f32);
+        p.max_pos = p.max_pos.max((hi + p_slack) as f32);
+    }
+    p
 }
 
 /// Samples per segment behind [`Spline::peaks`]' velocity and position bounds.
