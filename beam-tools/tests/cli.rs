@@ -753,7 +753,7 @@ fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
         (vec!["drive", "--script", s], "--pil"),
         (
             vec!["drive", "--port", "/dev/null", "--script", s],
-            "transport",
+            "serial link",
         ),
         (vec!["drive", "--sim"], "--script"),
         (vec!["drive", "--sim", "--script", b], "line 2"),

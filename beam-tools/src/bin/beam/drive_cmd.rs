@@ -23,8 +23,8 @@ pub struct DriveArgs {
     /// Run the commands on model-core's handler on the host, against the simulated beam.
     #[arg(long)]
     sim: bool,
-    /// A serial port with a drive on it (not available yet: the board's transport is not
-    /// built; use --pil or --sim).
+    /// A serial port with a drive on it (not available yet: the host side of the board's
+    /// link is not written; use --pil or --sim).
     #[arg(long, value_name = "PORT")]
     port: Option<String>,
     /// The script: one command per line, `-` for stdin (see below).
@@ -72,8 +72,8 @@ struct MoveResult {
 pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
     if a.port.is_some() {
         bail!(
-            "--port: the board's serial transport is not built yet; run the commands with \
-             --pil (the firmware under QEMU) or --sim"
+            "--port: talking to a board over its serial link is not written yet (the board's \
+             side is); run the commands with --pil (the firmware under QEMU) or --sim"
         );
     }
     if !a.pil && !a.sim {
