@@ -752,8 +752,8 @@ fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
     for (args, says) in [
         (vec!["drive", "--script", s], "--pil"),
         (
-            vec!["drive", "--port", "/dev/null", "--script", s],
-            "serial link",
+            vec!["drive", "--port", "/nonexistent/tty", "--script", s],
+            "opening /nonexistent/tty",
         ),
         (vec!["drive", "--sim"], "--script"),
         (vec!["drive", "--sim", "--script", b], "line 2"),

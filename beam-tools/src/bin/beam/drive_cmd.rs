@@ -8,7 +8,7 @@ use beam_tools::drive_script;
 use beam_tools::pil_host::{build_plugin, paths, run_pil_commands, PilConfig};
 use beam_wire::command::{Command, Outcome, Request};
 use clap::Args;
-use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange};
+use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
 use host_tests::sensors::SensorConfig;
 use model_core::{BeamParams, LawKind};
 use serde_json::json;
@@ -18,15 +18,21 @@ use std::path::PathBuf;
 pub struct DriveArgs {
     /// Run the commands on the PIL firmware under QEMU, against the simulated beam (and
     /// on the host's build, to compare).
-    #[arg(long, conflicts_with = "sim")]
+    #[arg(long, conflicts_with_all = ["sim", "port"])]
     pil: bool,
     /// Run the commands on model-core's handler on the host, against the simulated beam.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "port")]
     sim: bool,
-    /// A serial port with a drive on it (not available yet: the host side of the board's
-    /// link is not written; use --pil or --sim).
+    /// A serial port with a drive on it (the board's USART1 at 921 600 baud, through a
+    /// USB-serial adapter: /dev/ttyUSB0).
     #[arg(long, value_name = "PORT")]
     port: Option<String>,
+    /// With --port: write the telemetry records that arrive (send `stream 1` first) as CSV.
+    #[arg(long, value_name = "FILE", requires = "port")]
+    record: Option<PathBuf>,
+    /// With --port: how long to wait for each reply, ms.
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    reply_timeout_ms: u64,
     /// The script: one command per line, `-` for stdin (see below).
     #[arg(long, value_name = "FILE", conflicts_with = "session")]
     script: Option<PathBuf>,
@@ -70,14 +76,8 @@ struct MoveResult {
 }
 
 pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
-    if a.port.is_some() {
-        bail!(
-            "--port: talking to a board over its serial link is not written yet (the board's \
-             side is); run the commands with --pil (the firmware under QEMU) or --sim"
-        );
-    }
-    if !a.pil && !a.sim {
-        bail!("say where the drive is: --pil (firmware under QEMU) or --sim (host)");
+    if !a.pil && !a.sim && a.port.is_none() {
+        bail!("say where the drive is: --port PORT, --pil (firmware under QEMU) or --sim (host)");
     }
     if !(a.payload.is_finite() && (0.0..=1.0).contains(&a.payload)) {
         bail!("--payload {} must be in [0, 1] kg", a.payload);
@@ -97,6 +97,9 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         }
         _ => bail!("give the commands: --script FILE (or -) or --session"),
     };
+    if let Some(port) = &a.port {
+        return run_port(a, port, &script);
+    }
     let params = BeamParams {
         tip_mass_kg: a.payload,
         ..BeamParams::aluminium()
@@ -282,4 +285,88 @@ fn move_results(run: &CommandedRun) -> Vec<MoveResult> {
             _ => None,
         })
         .collect()
+}
+
+/// The script on a drive at the end of a serial port.
+fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
+    use beam_tools::serial_drive::{write_records_csv, SerialDrive};
+    use std::time::{Duration, Instant};
+    let timeout = Duration::from_millis(a.reply_timeout_ms);
+    let mut drive = SerialDrive::open(port, firmware::link::BAUD, timeout)?;
+    let start = Instant::now();
+    let mut exchanges = vec![];
+    for step in script {
+        match step {
+            Step::Send(command) => {
+                let (request, reply) = drive.request(command.clone())?;
+                exchanges.push((start.elapsed().as_secs_f64(), request, reply));
+            }
+            Step::Wait(s) => drive.listen(Duration::from_secs_f64(*s))?,
+            Step::UntilDone { settle_s, max_s } => {
+                let until = Instant::now() + Duration::from_secs_f64(*max_s);
+                loop {
+                    let (_, reply) = drive.request(Command::Status)?;
+                    match reply.outcome {
+                        Outcome::Status(s) if s.mode != model_core::Mode::Slewing as u8 => break,
+                        _ if Instant::now() > until => {
+                            bail!("the move did not end within {max_s} s")
+                        }
+                        _ => drive.listen(Duration::from_millis(20))?,
+                    }
+                }
+                drive.listen(Duration::from_secs_f64(*settle_s))?;
+            }
+            Step::Attach(_) | Step::AmpFault(_) => {
+                bail!("`attach` and `fault` act on the simulated beam; they have no meaning with --port")
+            }
+        }
+    }
+    let records = drive.take_records();
+    if let Some(path) = &a.record {
+        beam_tools::files::write_atomically(path, |w| {
+            write_records_csv(&records, model_core::DEFAULT_TS_S as f64, w)
+        })
+        .with_context(|| path.display().to_string())?;
+    }
+    let dropped = records.last().map_or(0, |r| r.dropped);
+    if a.json {
+        let exchanges: Vec<_> = exchanges
+            .iter()
+            .map(|(t, request, reply)| {
+                json!({
+                    "t_s": t,
+                    "seq": request.seq,
+                    "command": describe(request),
+                    "reply": format!("{:?}", reply.outcome),
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            json!({
+                "port": port,
+                "exchanges": exchanges,
+                "records": records.len(),
+                "records_dropped_by_drive": dropped,
+                "bad_frames": drive.bad_frames(),
+            })
+        );
+    } else {
+        for (t, request, reply) in &exchanges {
+            println!(
+                "{:8.3} s  #{:<3} {:<28} -> {:?}",
+                t,
+                request.seq,
+                describe(request),
+                reply.outcome
+            );
+        }
+        println!(
+            "  {} telemetry records ({} dropped by the drive), {} bad frames",
+            records.len(),
+            dropped,
+            drive.bad_frames()
+        );
+    }
+    Ok(())
 }

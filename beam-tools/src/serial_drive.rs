@@ -1,0 +1,200 @@
+//! A drive on a serial port: the host's end of `firmware::link` (requests out; replies and
+//! telemetry records in), over any byte stream, a `serialport` port on the bench or a
+//! pseudo-terminal in the tests.
+
+use beam_wire::command::{Command, Record, Reply, Request, Uplink};
+use beam_wire::{decode, encode, FrameError, FrameReader, MAX_FRAME};
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+/// What can go wrong talking to a drive.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    /// The port could not be opened.
+    #[error("opening {port}")]
+    Open {
+        /// The port.
+        port: String,
+        /// Why.
+        #[source]
+        source: serialport::Error,
+    },
+    /// Reading or writing failed.
+    #[error("serial I/O")]
+    Io(#[from] std::io::Error),
+    /// No reply to a request in time.
+    #[error("no reply to request {seq} within {timeout_ms} ms")]
+    Timeout {
+        /// The request's sequence number.
+        seq: u16,
+        /// How long we waited, ms.
+        timeout_ms: u64,
+    },
+    /// A request could not be encoded (a bug).
+    #[error("encoding a request")]
+    Encode(#[source] FrameError),
+    /// The drive could not decode a request we sent.
+    #[error("the drive could not read request {seq}: {error}")]
+    Rejected {
+        /// The request.
+        seq: u16,
+        /// What the drive said.
+        error: FrameError,
+    },
+}
+
+/// A drive at the other end of `port`.
+pub struct SerialDrive<P> {
+    port: P,
+    reader: FrameReader,
+    seq: u16,
+    timeout: Duration,
+    records: Vec<Record>,
+    bad_frames: u32,
+}
+
+impl SerialDrive<Box<dyn serialport::SerialPort>> {
+    /// Opens `path` at `baud` (8N1), waiting up to `timeout` for each reply.
+    pub fn open(path: &str, baud: u32, timeout: Duration) -> Result<Self, LinkError> {
+        let port = serialport::new(path, baud)
+            .timeout(Duration::from_millis(5))
+            .open()
+            .map_err(|source| LinkError::Open {
+                port: path.to_string(),
+                source,
+            })?;
+        Ok(Self::new(port, timeout))
+    }
+}
+
+impl<P: Read + Write> SerialDrive<P> {
+    /// A drive on `port` (whose reads should time out after a few milliseconds).
+    pub fn new(port: P, timeout: Duration) -> Self {
+        Self {
+            port,
+            reader: FrameReader::new(),
+            seq: 0,
+            timeout,
+            records: vec![],
+            bad_frames: 0,
+        }
+    }
+
+    /// Sends `command` and waits for its reply, keeping the records that arrive meanwhile.
+    pub fn request(&mut self, command: Command) -> Result<(Request, Reply), LinkError> {
+        self.seq = self.seq.wrapping_add(1).max(1);
+        let request = Request {
+            seq: self.seq,
+            command,
+        };
+        let mut buf = [0u8; MAX_FRAME + 1];
+        let frame = encode(&request, &mut buf).map_err(LinkError::Encode)?;
+        self.port.write_all(frame)?;
+        self.port.flush()?;
+        let deadline = Instant::now() + self.timeout;
+        while Instant::now() < deadline {
+            for up in self.read_some()? {
+                match up {
+                    Uplink::Reply(r) if r.seq == request.seq => return Ok((request, r)),
+                    Uplink::Reply(Reply {
+                        seq: 0,
+                        outcome: beam_wire::command::Outcome::BadFrame(error),
+                    }) => {
+                        return Err(LinkError::Rejected {
+                            seq: request.seq,
+                            error,
+                        })
+                    }
+                    // A late reply to an earlier request: not ours.
+                    Uplink::Reply(_) => {}
+                    Uplink::Record(r) => self.records.push(r),
+                }
+            }
+        }
+        Err(LinkError::Timeout {
+            seq: request.seq,
+            timeout_ms: self.timeout.as_millis() as u64,
+        })
+    }
+
+    /// Reads for `for_`, keeping the records.
+    pub fn listen(&mut self, for_: Duration) -> Result<(), LinkError> {
+        let until = Instant::now() + for_;
+        while Instant::now() < until {
+            for up in self.read_some()? {
+                if let Uplink::Record(r) = up {
+                    self.records.push(r);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The records received so far (taken).
+    pub fn take_records(&mut self) -> Vec<Record> {
+        std::mem::take(&mut self.records)
+    }
+
+    /// Frames from the drive that did not decode.
+    pub fn bad_frames(&self) -> u32 {
+        self.bad_frames
+    }
+
+    /// Whatever frames the port has now (waits at most its read timeout).
+    fn read_some(&mut self) -> Result<Vec<Uplink>, LinkError> {
+        let mut buf = [0u8; 256];
+        let n = match self.port.read(&mut buf) {
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                ) =>
+            {
+                0
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let mut out = vec![];
+        for &b in &buf[..n] {
+            match self.reader.push(b) {
+                Some(Ok(frame)) => match decode::<Uplink>(frame) {
+                    Ok(up) => out.push(up),
+                    Err(_) => self.bad_frames += 1,
+                },
+                Some(Err(_)) => self.bad_frames += 1,
+                None => {}
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Records as the CSV `beam calibrate` reads (`t_s` from the first record's tick at
+/// `ts_s`), with the drive's reference, mode, faults and drop count.
+pub fn write_records_csv(records: &[Record], ts_s: f64, w: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "t_s,tick,torque_nm,theta_rad,theta_ref_rad,root_strain,mode,faults,dropped"
+    )?;
+    let Some(first) = records.first() else {
+        return Ok(());
+    };
+    for r in records {
+        let k = r.tick.wrapping_sub(first.tick) as usize;
+        writeln!(
+            w,
+            "{},{},{},{},{},{},{},{},{}",
+            host_tests::decimal::tick_time(k, ts_s),
+            r.tick,
+            r.torque_nm,
+            r.theta_rad,
+            r.theta_ref_rad,
+            r.strain,
+            r.mode,
+            r.faults,
+            r.dropped
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,134 @@
+//! `beam drive --port` against a drive on a pseudo-terminal: the firmware's link and
+//! model-core's command handler, ticking in a thread, stand in for the board at the other
+//! end of a real tty.
+
+use beam_wire::command::Record;
+use firmware::link::Link;
+use model_core::commands::Commander;
+use model_core::{BeamParams, Controller, ControllerSettings, LawKind, RawMeasurement, Spline};
+use serialport::{SerialPort, TTYPort};
+use std::io::{Read, Write};
+use std::process::Command;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// A drive on `port`: bytes to the link, requests to the handler, a tick every millisecond
+/// (the hub held still), records while streaming; until `stop`.
+fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>) {
+    let (mut commander, law) = Commander::<3>::try_new(
+        BeamParams::aluminium(),
+        model_core::gains::GAIN_TABLE,
+        LawKind::PdFf,
+        0.0,
+    )
+    .unwrap();
+    let rest = Spline::try_build(&[(0.0, 0.0), (1.0, 0.0)]).unwrap();
+    let mut ctl = Controller::try_build(ControllerSettings::default(), law, rest).unwrap();
+    let mut link = Link::<4096>::new();
+    port.set_timeout(Duration::from_millis(1)).unwrap();
+    let start = Instant::now();
+    let mut tick = 0u32;
+    let mut buf = [0u8; 256];
+    while !stop.load(Ordering::Relaxed) {
+        if let Ok(n) = port.read(&mut buf) {
+            for &b in &buf[..n] {
+                link.receive_byte(b);
+            }
+        }
+        while let Some(request) = link.next_request() {
+            let reply = commander.handle(&mut ctl, &request);
+            link.reply(&reply);
+        }
+        while (tick as u128) < start.elapsed().as_millis() {
+            let t = ctl.step(&RawMeasurement::default());
+            let every = commander.stream_every() as u32;
+            if every > 0 && tick % every == 0 {
+                link.record(&Record {
+                    tick,
+                    torque_nm: t.torque_nm,
+                    theta_rad: t.theta_rad,
+                    theta_ref_rad: t.theta_ref_rad,
+                    strain: t.strain,
+                    mode: t.mode as u8,
+                    faults: t.faults.0,
+                    dropped: 0,
+                });
+            }
+            tick += 1;
+        }
+        let mut out = vec![];
+        while let Some(b) = link.next_tx_byte() {
+            out.push(b);
+        }
+        if !out.is_empty() {
+            port.write_all(&out).unwrap();
+        }
+    }
+}
+
+#[test]
+fn beam_drive_talks_to_a_drive_over_a_tty_and_records_its_stream() {
+    let (master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
+    let path = slave.name().expect("the tty's name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let drive = {
+        let stop = stop.clone();
+        std::thread::spawn(move || fake_drive(master, stop))
+    };
+    let dir = std::env::temp_dir().join(format!("beam-serial-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let script = dir.join("s.txt");
+    std::fs::write(
+        &script,
+        "status\nstop\nstream 1\nwait 0.3\nstream 0\npayload -1\nstatus\n",
+    )
+    .unwrap();
+    let csv = dir.join("rec.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_beam"))
+        .args(["drive", "--port", &path, "--script"])
+        .arg(&script)
+        .arg("--record")
+        .arg(&csv)
+        .arg("--json")
+        .output()
+        .unwrap();
+    stop.store(true, Ordering::Relaxed);
+    drive.join().unwrap();
+    drop(slave);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let replies: Vec<&str> = v["exchanges"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["reply"].as_str().unwrap())
+        .collect();
+    assert_eq!(replies.len(), 6, "{replies:?}");
+    assert!(replies[0].starts_with("Status"), "{}", replies[0]);
+    assert_eq!(replies[1], "Refused(NotMoving)");
+    assert_eq!(replies[2], "Done");
+    assert_eq!(replies[3], "Done");
+    assert_eq!(replies[4], "Refused(BadArgument)");
+    assert_eq!(v["bad_frames"], 0);
+    // A record for every tick of the 0.3 s (or so: the drive ticks by the wall clock),
+    // consecutive, none dropped.
+    let n = v["records"].as_u64().unwrap();
+    assert!((100..=3000).contains(&n), "{n} records");
+    assert_eq!(v["records_dropped_by_drive"], 0);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let ticks: Vec<u64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(ticks.len() as u64, n);
+    assert!(
+        ticks.windows(2).all(|w| w[1] == w[0] + 1),
+        "ticks consecutive"
+    );
+}
