@@ -410,6 +410,11 @@ fn pil_and_telemetry_reject_bad_input_with_exit_2_and_write_nothing() {
     let out_csv = dir.join("out.csv");
     let empty = dir.join("empty.txt");
     std::fs::write(&empty, "INFO drive up\n").unwrap();
+    // The same commands on the command line.
+    let v = json(&beam(&[
+        "drive", "--sim", "--json", "move", "30", ";", "done",
+    ]));
+    assert_eq!(v["moves"].as_array().unwrap().len(), 1);
     let bad = dir.join("bad.txt");
     std::fs::write(&bad, "tlm 1 2 3 4.0 nope 6 7 1 0\n").unwrap();
     let gap = dir.join("gap.txt");
@@ -746,6 +751,11 @@ fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
     for m in moves {
         assert!(m["hub_err_deg_after_0_25_s"].as_f64().unwrap() < 0.5, "{m}");
     }
+    // The same commands on the command line.
+    let v = json(&beam(&[
+        "drive", "--sim", "--json", "move", "30", ";", "done",
+    ]));
+    assert_eq!(v["moves"].as_array().unwrap().len(), 1);
     let bad = dir.join("bad.txt");
     std::fs::write(&bad, "move 30\nfly 3\n").unwrap();
     let b = bad.to_str().unwrap();

@@ -37,8 +37,17 @@ pub struct DriveArgs {
     #[arg(long, value_name = "FILE", conflicts_with = "session")]
     script: Option<PathBuf>,
     /// The built-in session: moves, waypoints, a payload change, a stop, a fault.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "words")]
     session: bool,
+    /// Commands on the command line instead of a script, `;` between them:
+    /// `beam drive --port P move 45 0.3 \; done \; status`.
+    #[arg(
+        value_name = "COMMAND",
+        trailing_var_arg = true,
+        allow_hyphen_values = true,
+        conflicts_with = "script"
+    )]
+    words: Vec<String>,
     /// Control law the drive runs (gains and shaper from the compiled table).
     #[arg(long, value_parser = named::<LawKind>(), default_value = "pd-ff")]
     controller: LawKind,
@@ -86,6 +95,10 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         bail!("--home {} must be within +-180 deg", a.home);
     }
     let script = match (&a.script, a.session) {
+        (None, false) if !a.words.is_empty() => {
+            let text = a.words.join(" ").replace(';', "\n");
+            drive_script::parse(&text).context("the command line")?
+        }
         (None, true) => session_script(),
         (Some(path), false) => {
             let text = if path.as_os_str() == "-" {
@@ -95,7 +108,7 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
             };
             drive_script::parse(&text).with_context(|| path.display().to_string())?
         }
-        _ => bail!("give the commands: --script FILE (or -) or --session"),
+        _ => bail!("give the commands: --script FILE (or -), --session, or on the command line"),
     };
     if let Some(port) = &a.port {
         return run_port(a, port, &script);
