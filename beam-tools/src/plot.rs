@@ -51,7 +51,63 @@ pub fn plot(run: &SimResult, title: &str, path: &Path) -> Result<(), PlotError> 
     render!(path, (1200, 900), draw(run, title))
 }
 
+/// A drive's recorded telemetry (`beam drive --record`): hub angle with its reference,
+/// torque and root strain against time, into `path` (`.png` or `.svg`).
+pub fn plot_records(
+    records: &[beam_wire::command::Record],
+    ts_s: f64,
+    title: &str,
+    path: &Path,
+) -> Result<(), PlotError> {
+    render!(path, (1200, 900), draw_records(records, ts_s, title))
+}
+
+fn draw_records<DB: DrawingBackend>(
+    records: &[beam_wire::command::Record],
+    ts_s: f64,
+    title: &str,
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let first = records.first().map_or(0, |r| r.tick);
+    let col = |f: fn(&beam_wire::command::Record) -> f64| {
+        records
+            .iter()
+            .map(|r| (r.tick.wrapping_sub(first) as f64 * ts_s, f(r)))
+            .collect::<Vec<_>>()
+    };
+    let figures: Vec<Figure> = vec![
+        (
+            "Hub angle",
+            "deg",
+            vec![
+                (
+                    "reference",
+                    col(|r| (r.theta_ref_rad as f64).to_degrees()),
+                    RED,
+                ),
+                ("hub", col(|r| (r.theta_rad as f64).to_degrees()), BLUE),
+            ],
+        ),
+        (
+            "Torque",
+            "N m",
+            vec![("torque", col(|r| r.torque_nm as f64), BLUE)],
+        ),
+        (
+            "Root strain",
+            "microstrain",
+            vec![("root", col(|r| r.strain as f64 * 1e6), BLUE)],
+        ),
+    ];
+    draw_figures(title, figures, (3, 1), root)
+}
+
 type Series<'a> = (&'a str, Vec<(f64, f64)>, RGBColor);
+/// A panel: its name, its unit and its series.
+type Figure<'a> = (&'a str, &'a str, Vec<Series<'a>>);
 
 fn draw<DB: DrawingBackend>(
     run: &SimResult,
@@ -61,16 +117,10 @@ fn draw<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: &dyn std::fmt::Display| PlotError::Draw(e.to_string());
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled(title, ("sans-serif", 24))
-        .map_err(|e| err(&e))?;
-    let panels = root.split_evenly((2, 2));
     let s = &run.samples;
     let col =
         |f: fn(&host_tests::sim::Sample) -> f64| s.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
-    let figures: [(&str, &str, Vec<Series>); 4] = [
+    let figures: [Figure; 4] = [
         (
             "Hub angle",
             "deg",
@@ -95,7 +145,29 @@ where
             vec![("mid", col(|x| x.mid_strain * 1e6), BLUE)],
         ),
     ];
-    let t_end = s.last().map_or(1.0, |x| x.t).max(1e-3);
+    draw_figures(title, figures.into(), (2, 2), root)
+}
+
+/// The panels of `figures` on a `grid` (rows, columns), under `title`.
+fn draw_figures<DB: DrawingBackend>(
+    title: &str,
+    figures: Vec<Figure>,
+    grid: (usize, usize),
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: &dyn std::fmt::Display| PlotError::Draw(e.to_string());
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(title, ("sans-serif", 24))
+        .map_err(|e| err(&e))?;
+    let panels = root.split_evenly(grid);
+    let t_end = figures
+        .iter()
+        .flat_map(|(_, _, series)| series.iter().flat_map(|(_, v, _)| v.last().map(|p| p.0)))
+        .fold(1e-3, f64::max);
     for (area, (name, unit, series)) in panels.iter().zip(figures) {
         let (lo, hi) = series
             .iter()

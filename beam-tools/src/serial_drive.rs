@@ -51,6 +51,8 @@ pub struct SerialDrive<P> {
     timeout: Duration,
     records: Vec<Record>,
     bad_frames: u32,
+    progress: Option<Box<dyn FnMut(usize)>>,
+    last_progress: Instant,
 }
 
 impl SerialDrive<Box<dyn serialport::SerialPort>> {
@@ -77,7 +79,15 @@ impl<P: Read + Write> SerialDrive<P> {
             timeout,
             records: vec![],
             bad_frames: 0,
+            progress: None,
+            last_progress: Instant::now(),
         }
+    }
+
+    /// Calls `f` with the number of records received, at most ten times a second while
+    /// they arrive (for a progress line).
+    pub fn on_progress(&mut self, f: impl FnMut(usize) + 'static) {
+        self.progress = Some(Box::new(f));
     }
 
     /// Sends `command` and waits for its reply, keeping the records that arrive meanwhile.
@@ -155,6 +165,12 @@ impl<P: Read + Write> SerialDrive<P> {
             }
             Err(e) => return Err(e.into()),
         };
+        if let Some(f) = &mut self.progress {
+            if self.last_progress.elapsed() >= Duration::from_millis(100) {
+                self.last_progress = Instant::now();
+                f(self.records.len());
+            }
+        }
         let mut out = vec![];
         for &b in &buf[..n] {
             match self.reader.push(b) {

@@ -85,11 +85,14 @@ fn beam_drive_talks_to_a_drive_over_a_tty_and_records_its_stream() {
     )
     .unwrap();
     let csv = dir.join("rec.csv");
+    let png = dir.join("rec.png");
     let out = Command::new(env!("CARGO_BIN_EXE_beam"))
         .args(["drive", "--port", &path, "--script"])
         .arg(&script)
         .arg("--record")
         .arg(&csv)
+        .arg("--plot")
+        .arg(&png)
         .arg("--json")
         .output()
         .unwrap();

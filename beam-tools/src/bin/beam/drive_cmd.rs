@@ -30,6 +30,10 @@ pub struct DriveArgs {
     /// With --port: write the telemetry records that arrive (send `stream 1` first) as CSV.
     #[arg(long, value_name = "FILE", requires = "port")]
     record: Option<PathBuf>,
+    /// With --record: also plot the recording (hub angle and reference, torque, root
+    /// strain; .png or .svg).
+    #[arg(long, value_name = "FILE", requires = "record")]
+    plot: Option<PathBuf>,
     /// With --port: how long to wait for each reply, ms.
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=60_000))]
     reply_timeout_ms: u64,
@@ -305,7 +309,14 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
     use beam_tools::serial_drive::{write_records_csv, SerialDrive};
     use std::time::{Duration, Instant};
     let timeout = Duration::from_millis(a.reply_timeout_ms);
+    if let Some(path) = &a.plot {
+        beam_tools::plot::check_extension(path)?;
+    }
     let mut drive = SerialDrive::open(port, firmware::link::BAUD, timeout)?;
+    // A progress line while recording, on a terminal only (scripts and tests see none).
+    if a.record.is_some() && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        drive.on_progress(|n| eprint!("\rrecording: {n} records"));
+    }
     let start = Instant::now();
     let mut exchanges = vec![];
     for step in script {
@@ -340,6 +351,15 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
             write_records_csv(&records, model_core::DEFAULT_TS_S as f64, w)
         })
         .with_context(|| path.display().to_string())?;
+    }
+    if let Some(path) = &a.plot {
+        let title = format!("{} records from {port}", records.len());
+        beam_tools::files::plot_atomically(path, |tmp| {
+            beam_tools::plot::plot_records(&records, model_core::DEFAULT_TS_S as f64, &title, tmp)
+        })?;
+    }
+    if a.record.is_some() && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        eprintln!();
     }
     let dropped = records.last().map_or(0, |r| r.dropped);
     if a.json {
