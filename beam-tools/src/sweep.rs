@@ -28,6 +28,9 @@ pub struct SweepSpec {
     /// Move amplitudes, deg, taken in turn by the cases, each at its planned time (empty:
     /// the paper's slew for every case).
     pub moves_deg: Vec<f64>,
+    /// Plan each move (of `moves_deg`) with model-core's planner at the shortest time its
+    /// limits allow, as a commanded drive does, rather than at [`planned_time_s`].
+    pub shortest: bool,
 }
 
 /// The planned time of a move of `deg`: the one with the paper's slew's peak reference
@@ -55,6 +58,8 @@ pub struct Perturbation {
     pub coulomb_nm: Option<f64>,
     /// The move's amplitude, deg (`None`: the paper's slew).
     pub move_deg: Option<f64>,
+    /// Plan it at the planner's shortest time.
+    pub shortest: bool,
 }
 
 impl Perturbation {
@@ -81,6 +86,7 @@ impl Perturbation {
             coulomb_nm,
             move_deg: (!spec.moves_deg.is_empty())
                 .then(|| spec.moves_deg[index % spec.moves_deg.len()]),
+            shortest: spec.shortest && !spec.moves_deg.is_empty(),
         }
     }
 
@@ -99,6 +105,7 @@ impl Perturbation {
                     time_s: planned_time_s(deg) as f32,
                     shaper,
                     timing: Timing::Stretch,
+                    shortest: self.shortest,
                     ..Motion::default()
                 }
             }
@@ -215,6 +222,7 @@ mod tests {
             seed: 3,
             coulomb_max_nm: 0.0,
             moves_deg: vec![],
+            shortest: false,
         };
         let with_more = SweepSpec {
             coulomb_max_nm: 0.05,

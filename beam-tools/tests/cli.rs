@@ -283,7 +283,7 @@ fn optimize_writes_a_valid_table_row() {
 
 #[test]
 fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
-    let cases: [(&[&str], &str); 15] = [
+    let cases: [(&[&str], &str); 16] = [
         (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
         (&["simulate", "--time", "fast"], "shortest"),
         (
@@ -338,6 +338,7 @@ fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
         (&["simulate", "--load-nm", "0.5"], "--load-at"),
         (&["optimize", "--robust", "20000"], "--robust"),
         (&["sweep", "--moves", "-5"], "--moves"),
+        (&["sweep", "--shortest"], "--moves"),
     ];
     for (args, says) in cases {
         let out = beam(args);

@@ -341,6 +341,7 @@ fn scenarios(
         seed: a.seed,
         coulomb_max_nm: 0.0,
         moves_deg: vec![],
+        shortest: false,
     };
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
     use rand::Rng;

@@ -39,6 +39,10 @@ pub struct SweepArgs {
     /// sqrt(deg / 180)), shaped by each law's table shaper [default: the paper's slew].
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     moves: Vec<f64>,
+    /// Plan each of --moves with model-core's planner at its shortest time, as a commanded
+    /// drive does (instead of 0.35 s * sqrt(deg / 180)).
+    #[arg(long, requires = "moves")]
+    shortest: bool,
     /// Gains and shapers from this table (as `beam optimize --table` writes it) instead of
     /// the compiled one, for the controller and the peer.
     #[arg(long, value_name = "FILE")]
@@ -133,6 +137,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         seed: a.seed,
         coulomb_max_nm: a.coulomb_max,
         moves_deg: a.moves.clone(),
+        shortest: a.shortest,
     };
     let started = Instant::now();
     let cases = with_modes!(
