@@ -2,9 +2,10 @@
 //! fitted so that the plant, driven open loop by the logged torque, reproduces the logged hub
 //! angle (and, last, the root strain).
 //!
-//! The paper's four steps: (1) mass and stiffness (Jm, density, EI) over 0..0.35 s on the hub
-//! angle alone; (2) friction (viscous b, Coulomb) over 0.35..0.6 s; (3) all five together over
-//! 0..0.6 s, each held within +-20 % of steps 1-2; (4) the strain side (root gauge position)
+//! The paper's four steps, on windows found in the log ([`find_windows`]; the paper's are
+//! 0..0.35 s and 0.35..0.6 s): (1) mass and stiffness (Jm, density, EI) up to the end of the
+//! move on the hub angle alone; (2) friction (viscous b, Coulomb) while the hub settles;
+//! (3) all five together over both, each held within +-20 % of steps 1-2; (4) the strain side (root gauge position)
 //! and beam coefficients (EI, density) within +-20 %, with the strain term weighted in. Errors
 //! are normalised by the sensors' resolution (one encoder count, one microstrain), so the
 //! weights W1 and W2 compare like with like. Each step samples its bounds on a Latin hypercube
@@ -64,7 +65,7 @@ pub enum LogProblem {
     #[error("no `{column}` column (header: {header})")]
     MissingColumn {
         /// The column.
-        column: &'static str,
+        column: String,
         /// The header line.
         header: String,
     },
@@ -101,9 +102,17 @@ pub enum LogProblem {
     /// Too few samples.
     #[error("{0} samples: at least 100 (0.1 s at 1 kHz) are needed")]
     TooShort(usize),
-    /// The log stops before the steps' windows end.
-    #[error("the log ends before 0.6 s: the four steps need 0..0.6 s")]
-    EndsEarly,
+    /// The log stops before the hub has settled after the move.
+    #[error("the log ends {0:.3} s after the move: at least 0.05 s of settling is needed")]
+    EndsEarly(f64),
+    /// The hub hardly moves in the log.
+    #[error("the hub moves only {0:.4} rad in the log: no move to calibrate on")]
+    NoMove(f64),
+    /// Windows given by hand that do not fit the log.
+    #[error(
+        "the windows must satisfy 0 <= start < end < settle end <= {0:.3} s (the log's length)"
+    )]
+    BadWindows(f64),
 }
 
 /// Why calibration could not run.
@@ -135,10 +144,96 @@ pub struct Log {
     pub mid_strain: Option<Vec<f64>>,
 }
 
+/// Which column of a log holds each quantity, and in what unit (a multiplier to SI).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Columns {
+    /// Time: column and unit (s per unit).
+    pub t: (String, f64),
+    /// Torque: column and unit (N m per unit).
+    pub torque: (String, f64),
+    /// Hub angle: column and unit (rad per unit).
+    pub theta: (String, f64),
+    /// Root strain: column and unit (strain per unit).
+    pub root_strain: (String, f64),
+    /// Mid-span strain, if logged: column and unit.
+    pub mid_strain: Option<(String, f64)>,
+}
+
+impl Default for Columns {
+    /// The project's own log format: `t_s,torque_nm,theta_rad,root_strain[,mid_strain]`.
+    fn default() -> Self {
+        Self {
+            t: ("t_s".into(), 1.0),
+            torque: ("torque_nm".into(), 1.0),
+            theta: ("theta_rad".into(), 1.0),
+            root_strain: ("root_strain".into(), 1.0),
+            mid_strain: Some(("mid_strain".into(), 1.0)),
+        }
+    }
+}
+
+impl Columns {
+    /// The defaults with some quantities mapped, from `t=time_ms:ms,theta=hub:deg,...`:
+    /// quantities `t`, `torque`, `theta`, `strain`, `mid`; units `s`, `ms`, `us` (time),
+    /// `nm`, `mnm` (torque), `rad`, `deg` (angle), `strain`, `ue` (strain).
+    pub fn parse(spec: &str) -> Result<Self, String> {
+        let mut c = Columns::default();
+        for item in spec.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+            let (what, rest) = item
+                .split_once('=')
+                .ok_or_else(|| format!("`{item}`: expected QUANTITY=COLUMN[:UNIT]"))?;
+            let (column, unit) = match rest.split_once(':') {
+                Some((c, u)) => (c.trim(), Some(u.trim())),
+                None => (rest.trim(), None),
+            };
+            if column.is_empty() {
+                return Err(format!("`{item}`: no column name"));
+            }
+            let scale = |units: &[(&str, f64)]| -> Result<f64, String> {
+                match unit {
+                    None => Ok(units[0].1),
+                    Some(u) => units
+                        .iter()
+                        .find(|(n, _)| *n == u)
+                        .map(|(_, s)| *s)
+                        .ok_or_else(|| {
+                            let names: Vec<&str> = units.iter().map(|(n, _)| *n).collect();
+                            format!("`{item}`: unit `{u}` is not one of {}", names.join(", "))
+                        }),
+                }
+            };
+            let slot = (column.to_string(), 0.0);
+            match what.trim() {
+                "t" => c.t = (slot.0, scale(&[("s", 1.0), ("ms", 1e-3), ("us", 1e-6)])?),
+                "torque" => c.torque = (slot.0, scale(&[("nm", 1.0), ("mnm", 1e-3)])?),
+                "theta" => {
+                    c.theta = (
+                        slot.0,
+                        scale(&[("rad", 1.0), ("deg", core::f64::consts::PI / 180.0)])?,
+                    )
+                }
+                "strain" => c.root_strain = (slot.0, scale(&[("strain", 1.0), ("ue", 1e-6)])?),
+                "mid" => c.mid_strain = Some((slot.0, scale(&[("strain", 1.0), ("ue", 1e-6)])?)),
+                other => {
+                    return Err(format!(
+                        "`{other}` is not a quantity: t, torque, theta, strain or mid"
+                    ))
+                }
+            }
+        }
+        Ok(c)
+    }
+}
+
 /// Reads a log CSV: a header naming at least `t_s,torque_nm,theta_rad,root_strain` (and
 /// optionally `mid_strain`; other columns are ignored), then one row per sample. Errors name
 /// the file, the line and the column.
 pub fn read_log(text: &str, file: &str) -> Result<Log, LogError> {
+    read_log_with(text, file, &Columns::default())
+}
+
+/// [`read_log`] with the columns and units of `columns`.
+pub fn read_log_with(text: &str, file: &str, columns: &Columns) -> Result<Log, LogError> {
     let err = |line, problem| LogError {
         file: file.to_string(),
         line,
@@ -151,24 +246,25 @@ pub fn read_log(text: &str, file: &str) -> Result<Log, LogError> {
     let (_, header) = lines.next().ok_or(err(None, LogProblem::Empty))?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let col = |name: &str| names.iter().position(|n| *n == name);
-    let need = |name: &'static str| {
+    let need = |name: &str| {
         col(name).ok_or_else(|| {
             err(
                 Some(1),
                 LogProblem::MissingColumn {
-                    column: name,
+                    column: name.to_string(),
                     header: header.to_string(),
                 },
             )
         })
     };
     let (it, iu, ith, ie) = (
-        need("t_s")?,
-        need("torque_nm")?,
-        need("theta_rad")?,
-        need("root_strain")?,
+        need(&columns.t.0)?,
+        need(&columns.torque.0)?,
+        need(&columns.theta.0)?,
+        need(&columns.root_strain.0)?,
     );
-    let im = col("mid_strain");
+    let im = columns.mid_strain.as_ref().and_then(|(name, _)| col(name));
+    let unit_mid = columns.mid_strain.as_ref().map_or(1.0, |m| m.1);
     let mut log = Log {
         t: vec![],
         torque: vec![],
@@ -201,18 +297,18 @@ pub fn read_log(text: &str, file: &str) -> Result<Log, LogError> {
                 }))
             }
         };
-        let t = num(it)?;
+        let t = num(it)? * columns.t.1;
         if let Some(&prev) = log.t.last() {
             if t <= prev {
                 return Err(at(LogProblem::TimeNotIncreasing(t)));
             }
         }
         log.t.push(t);
-        log.torque.push(num(iu)?);
-        log.theta.push(num(ith)?);
-        log.root_strain.push(num(ie)?);
+        log.torque.push(num(iu)? * columns.torque.1);
+        log.theta.push(num(ith)? * columns.theta.1);
+        log.root_strain.push(num(ie)? * columns.root_strain.1);
         if let (Some(i), Some(m)) = (im, log.mid_strain.as_mut()) {
-            m.push(num(i)?);
+            m.push(num(i)? * unit_mid);
         }
     }
     if log.t.len() < 100 {
@@ -226,10 +322,92 @@ pub fn read_log(text: &str, file: &str) -> Result<Log, LogError> {
     {
         return Err(err(Some(k + 3), LogProblem::NonUniform));
     }
-    if *log.t.last().unwrap_or(&0.0) < 0.6 - 1e-9 {
-        return Err(err(None, LogProblem::EndsEarly));
-    }
     Ok(log)
+}
+
+/// Where the steps look, s from the log's first sample: the move (`start_s..end_s`) and the
+/// settling after it (`end_s..settle_end_s`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Windows {
+    /// The hub starts to move (or the torque rises).
+    pub start_s: f64,
+    /// The hub has arrived: from here on it stays within 2 % of the move of its final angle.
+    pub end_s: f64,
+    /// The end of the settling window.
+    pub settle_end_s: f64,
+}
+
+impl Windows {
+    /// The paper's: the 0.35 s slew and 0.25 s after it.
+    pub const PAPER: Windows = Windows {
+        start_s: 0.0,
+        end_s: 0.35,
+        settle_end_s: 0.6,
+    };
+
+    /// `start,end,settle_end` given by hand, checked against `log`.
+    pub fn given(
+        start_s: f64,
+        end_s: f64,
+        settle_end_s: f64,
+        log: &Log,
+    ) -> Result<Self, LogProblem> {
+        let length = log.t[log.t.len() - 1] - log.t[0];
+        let ok = start_s.is_finite()
+            && end_s.is_finite()
+            && settle_end_s.is_finite()
+            && 0.0 <= start_s
+            && start_s < end_s
+            && end_s < settle_end_s
+            && settle_end_s <= length + 1e-9;
+        if ok {
+            Ok(Windows {
+                start_s,
+                end_s,
+                settle_end_s,
+            })
+        } else {
+            Err(LogProblem::BadWindows(length))
+        }
+    }
+}
+
+/// The windows of the move in `log`, found from the logged angle and torque, wherever it
+/// starts and whatever its amplitude: the move starts where the hub has left its first angle
+/// by 2 % of the move or the torque has risen to 5 % of its peak, whichever comes first; it
+/// ends where the hub is within 2 % of the move of its final angle (the mean of the last
+/// 5 % of the log) for good; the settling window runs on for the longer of 0.25 s and 70 %
+/// of the move (the paper's proportions), or to the end of the log.
+pub fn find_windows(log: &Log) -> Result<Windows, LogProblem> {
+    let n = log.t.len();
+    let t = |k: usize| log.t[k] - log.t[0];
+    let first = log.theta[0];
+    let tail = (n / 20).max(1);
+    let last = log.theta[n - tail..].iter().sum::<f64>() / tail as f64;
+    let travel = last - first;
+    // Ten encoder counts: below that there is no move to speak of.
+    if travel.abs() < 10.0 * count_rad() {
+        return Err(LogProblem::NoMove(travel.abs()));
+    }
+    let band = 0.02 * travel.abs();
+    let peak_torque = log.torque.iter().fold(0.0f64, |m, &u| m.max(u.abs()));
+    let start = (0..n)
+        .find(|&k| (log.theta[k] - first).abs() > band || log.torque[k].abs() > 0.05 * peak_torque)
+        .unwrap_or(0);
+    let end = (0..n)
+        .rev()
+        .find(|&k| (log.theta[k] - last).abs() > band)
+        .map_or(start + 1, |k| (k + 1).min(n - 1));
+    let (start_s, end_s) = (t(start), t(end.max(start + 1).min(n - 1)));
+    let settle_end_s = (end_s + (0.25f64).max(0.7 * (end_s - start_s))).min(t(n - 1));
+    if settle_end_s - end_s < 0.05 {
+        return Err(LogProblem::EndsEarly(settle_end_s - end_s));
+    }
+    Ok(Windows {
+        start_s,
+        end_s,
+        settle_end_s,
+    })
 }
 
 /// A parameter the steps fit.
@@ -452,6 +630,7 @@ pub fn calibrate<const N: usize>(
     log: &Log,
     guess: &BeamParams,
     evals: usize,
+    windows: &Windows,
 ) -> Result<(BeamParams, Vec<StepReport>), CalibrateError> {
     Beam::try_build(*guess)?;
     let mut p = *guess;
@@ -477,10 +656,11 @@ pub fn calibrate<const N: usize>(
         });
         Ok::<(), CalibrateError>(())
     };
-    let t_end = (log.t[log.t.len() - 1] - log.t[0]).min(0.6);
+    let w = windows;
+    let t_end = w.settle_end_s;
     // 1. Mass and stiffness, on the hub angle during the move.
     let fit1 = Fit {
-        window: (0.0, 0.35),
+        window: (0.0, w.end_s),
         w1: 1.0,
         w2: 0.0,
     };
@@ -489,7 +669,7 @@ pub fn calibrate<const N: usize>(
     report("mass and stiffness", fit1, &s1, &p)?;
     // 2. Friction, after the move.
     let fit2 = Fit {
-        window: (0.35, t_end),
+        window: (w.end_s, t_end),
         w1: 1.0,
         w2: 0.0,
     };

@@ -4,7 +4,7 @@
 //! identified model must recover the rigid-body inertia within 5 % and the first hub-free
 //! frequency within 2 %.
 
-use beam_tools::calibrate::{calibrate, read_log};
+use beam_tools::calibrate::{calibrate, find_windows, read_log, read_log_with, Columns};
 use beam_tools::files::write_trace_csv;
 use host_tests::sim::{simulate, SimOptions};
 use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
@@ -50,8 +50,19 @@ fn calibration_recovers_the_plant_from_its_log() {
         .abs()
             < 1e-3));
 
+    // The windows come from the log: the move starts within the first few ticks (PD's torque
+    // grows with the error, which grows as t^3, so it reaches 5 % of its peak after about
+    // 10 ms) and, PD 20/1 lagging its 0.35 s reference, the hub arrives within 2 % of the
+    // move (3.6 deg) a little after 0.35 s; settling runs for 70 % of the move after it.
+    let w = find_windows(&log).unwrap();
+    assert!(w.start_s < 0.03, "{w:?}");
+    assert!((0.33..0.5).contains(&w.end_s), "{w:?}");
+    assert!(
+        w.settle_end_s > w.end_s + 0.25 - 1e-9 && w.settle_end_s <= 0.8,
+        "{w:?}"
+    );
     let (found, steps) =
-        calibrate::<3>(&log, &guess, beam_tools::calibrate::DEFAULT_EVALS).unwrap();
+        calibrate::<3>(&log, &guess, beam_tools::calibrate::DEFAULT_EVALS, &w).unwrap();
     for s in &steps {
         eprintln!(
             "{:20} {:?} rms theta {:.2e} rad, strain {:.2} ue",
@@ -79,4 +90,74 @@ fn calibration_recovers_the_plant_from_its_log() {
     assert!(rel(guess.jm_kgm2, truth.jm_kgm2) > 0.05 && rel(g.pinned_hz[0], t.pinned_hz[0]) > 0.02);
     // The fit explains the log down to about the encoder's resolution.
     assert!(steps[2].rms_theta_err_rad < 5.0 * count, "{:?}", steps[2]);
+}
+
+#[test]
+fn a_log_from_another_rig_reads_with_its_own_columns_and_units() {
+    // The same kind of log as another rig writes it: time in ms from an arbitrary clock,
+    // the angle in degrees from another zero, strain in microstrain, other column names and
+    // order, sampled at 500 Hz. Read with --columns, it is the SI log, and the windows are
+    // found in the same place.
+    let run = simulate(
+        &model(BeamParams::aluminium()),
+        Law::Pd(PdGains::BASELINE),
+        &SimOptions {
+            duration_s: 0.8,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let mut csv = Vec::new();
+    write_trace_csv(&run, &mut csv).unwrap();
+    let si = read_log(std::str::from_utf8(&csv).unwrap(), "si.csv").unwrap();
+    let mut other = String::from("eps_root,clock_ms,hub_deg,tau\n");
+    let keep: Vec<usize> = (0..si.t.len()).step_by(2).collect();
+    for &k in &keep {
+        other.push_str(&format!(
+            "{},{},{},{}\n",
+            si.root_strain[k] * 1e6,
+            5000.0 + si.t[k] * 1e3,
+            si.theta[k].to_degrees() + 30.0,
+            si.torque[k]
+        ));
+    }
+    let columns =
+        Columns::parse("t=clock_ms:ms,theta=hub_deg:deg,strain=eps_root:ue,torque=tau").unwrap();
+    let log = read_log_with(&other, "other.csv", &columns).unwrap();
+    assert_eq!(log.t.len(), keep.len());
+    for (i, &k) in keep.iter().enumerate() {
+        assert!((log.t[i] - (5.0 + si.t[k])).abs() < 1e-9);
+        assert!((log.theta[i] - (si.theta[k] + 30f64.to_radians())).abs() < 1e-9);
+        assert!((log.root_strain[i] - si.root_strain[k]).abs() < 1e-12);
+    }
+    let (a, b) = (find_windows(&si).unwrap(), find_windows(&log).unwrap());
+    // Within a sample of the 500 Hz log.
+    for (x, y) in [
+        (a.start_s, b.start_s),
+        (a.end_s, b.end_s),
+        (a.settle_end_s, b.settle_end_s),
+    ] {
+        assert!((x - y).abs() <= 0.002 + 1e-9, "{a:?} {b:?}");
+    }
+    // Bad maps are refused by name.
+    for (spec, says) in [
+        ("t=x:hours", "unit `hours`"),
+        ("speed=x", "not a quantity"),
+        ("theta", "QUANTITY=COLUMN"),
+        ("theta=:deg", "no column"),
+    ] {
+        let e = Columns::parse(spec).unwrap_err();
+        assert!(e.contains(says), "{spec}: {e}");
+    }
+    // Windows by hand: in order and inside the log, or refused.
+    use beam_tools::calibrate::Windows;
+    assert!(Windows::given(0.0, 0.3, 0.6, &log).is_ok());
+    for (a, b, c) in [(0.3, 0.1, 0.6), (0.0, 0.3, 0.3), (-0.1, 0.3, 0.6), (0.0, 0.3, 5.0)] {
+        assert!(Windows::given(a, b, c, &log).is_err(), "{a} {b} {c}");
+    }
+    // A log where nothing moves has no windows.
+    let mut still = si.clone();
+    still.theta.iter_mut().for_each(|th| *th = -1.0);
+    still.torque.iter_mut().for_each(|u| *u = 0.0);
+    assert!(find_windows(&still).is_err());
 }

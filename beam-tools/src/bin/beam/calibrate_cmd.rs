@@ -2,7 +2,9 @@
 
 use crate::PlantArgs;
 use anyhow::{bail, Context};
-use beam_tools::calibrate::{calibrate, read_log, StepReport, DEFAULT_EVALS};
+use beam_tools::calibrate::{
+    calibrate, find_windows, read_log_with, Columns, StepReport, Windows, DEFAULT_EVALS,
+};
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
 use serde_json::json;
@@ -10,11 +12,26 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct CalibrateArgs {
-    /// The log: CSV with t_s, torque_nm, theta_rad, root_strain [, mid_strain].
+    /// The log: CSV with t_s, torque_nm, theta_rad, root_strain [, mid_strain] (or the columns
+    /// of --columns), uniformly sampled at any rate, starting at any angle.
     log: PathBuf,
     /// The starting guess (preset, or --params FILE), mode count and payload.
     #[command(flatten)]
     plant: PlantArgs,
+    /// Which column holds what, and its unit, when the log is not in the project's format:
+    /// `t=time_ms:ms,torque=tau:nm,theta=hub:deg,strain=eps:ue,mid=mid:ue` (units: s, ms,
+    /// us; nm, mnm; rad, deg; strain, ue; the others keep their default names).
+    #[arg(long, value_name = "MAP", value_parser = Columns::parse)]
+    columns: Option<Columns>,
+    /// The windows, s from the log's first sample: move start, move end, end of settling
+    /// [default: found in the log].
+    #[arg(
+        long,
+        value_name = "START,END,SETTLE_END",
+        value_delimiter = ',',
+        num_args = 3
+    )]
+    windows: Option<Vec<f64>>,
     /// COBYLA evaluations per local search.
     #[arg(long, default_value_t = DEFAULT_EVALS)]
     evals: usize,
@@ -32,8 +49,15 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     }
     let guess = *crate::beam(&a.plant)?.params();
     let text = std::fs::read_to_string(&a.log).with_context(|| a.log.display().to_string())?;
-    let log = read_log(&text, &a.log.display().to_string())?;
-    let (found, steps) = with_modes!(a.plant.modes, calibrate(&log, &guess, a.evals))?;
+    let file = a.log.display().to_string();
+    let log = read_log_with(&text, &file, &a.columns.clone().unwrap_or_default())?;
+    let windows = match a.windows.as_deref() {
+        Some([s, e, z]) => Windows::given(*s, *e, *z, &log),
+        Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
+        None => find_windows(&log),
+    }
+    .with_context(|| file.clone())?;
+    let (found, steps) = with_modes!(a.plant.modes, calibrate(&log, &guess, a.evals, &windows))?;
     if let Some(path) = &a.out {
         let comment = format!("identified by beam calibrate from {}", a.log.display());
         let text = beam_tools::params_file::render(&found, &comment);
@@ -50,14 +74,21 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                        "rms_theta_err_rad": s.rms_theta_err_rad, "rms_strain_err_ue": s.rms_strain_err_ue})
             })
             .collect();
-        println!("{}", json!({"steps": steps, "identified": fm, "guess": gm}));
+        let w = [windows.start_s, windows.end_s, windows.settle_end_s];
+        println!(
+            "{}",
+            json!({"steps": steps, "identified": fm, "guess": gm, "windows_s": w})
+        );
         return Ok(());
     }
     println!(
-        "calibrated from {} ({} samples), guess: {} preset",
+        "calibrated from {} ({} samples), guess: {} preset; move {:.3}..{:.3} s, settling to {:.3} s",
         a.log.display(),
         log.t.len(),
-        a.plant.preset.name()
+        a.plant.preset.name(),
+        windows.start_s,
+        windows.end_s,
+        windows.settle_end_s
     );
     for s in &steps {
         print_step(s);
