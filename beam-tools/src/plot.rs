@@ -105,6 +105,32 @@ where
     draw_figures(title, figures, (3, 1), root)
 }
 
+/// One panel of [`plot_panels`]: its name, its unit and its curves (label, points).
+pub type Panel<'a> = (&'a str, &'a str, Vec<(&'a str, Vec<(f64, f64)>)>);
+
+/// Panels of labelled curves against time (`beam replay`'s measured-against-model
+/// figures): each panel a name, a unit and its curves (label, points), stacked in one
+/// column, the first curve of a panel in blue, the second in red.
+pub fn plot_panels(title: &str, panels: Vec<Panel>, path: &Path) -> Result<(), PlotError> {
+    let rows = panels.len().max(1);
+    let figures: Vec<Figure> = panels
+        .into_iter()
+        .map(|(name, unit, curves)| {
+            let series = curves
+                .into_iter()
+                .enumerate()
+                .map(|(i, (label, pts))| (label, pts, [BLUE, RED, GREEN][i % 3]))
+                .collect();
+            (name, unit, series)
+        })
+        .collect();
+    render!(
+        path,
+        (1200, 300 * rows as u32),
+        draw_figures(title, figures, (rows, 1))
+    )
+}
+
 type Series<'a> = (&'a str, Vec<(f64, f64)>, RGBColor);
 /// A panel: its name, its unit and its series.
 type Figure<'a> = (&'a str, &'a str, Vec<Series<'a>>);

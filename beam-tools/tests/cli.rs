@@ -283,7 +283,7 @@ fn optimize_writes_a_valid_table_row() {
 
 #[test]
 fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
-    let cases: [(&[&str], &str); 18] = [
+    let cases: [(&[&str], &str); 20] = [
         (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
         (&["simulate", "--time", "fast"], "shortest"),
         (
@@ -341,6 +341,8 @@ fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
         (&["sweep", "--shortest"], "--moves"),
         (&["calibrate", "x.csv", "--columns", "t=x:hours"], "hours"),
         (&["calibrate", "x.csv", "--windows", "0.1,0.2"], "--windows"),
+        (&["replay", "/nonexistent/log.csv"], "/nonexistent/log.csv"),
+        (&["replay", "x.csv", "--plot", "out.gif"], ".png or .svg"),
     ];
     for (args, says) in cases {
         let out = beam(args);

@@ -207,6 +207,25 @@ impl<const N: usize> Plant<N> {
         }
     }
 
+    /// The beam's modal accelerations with the hub's motion prescribed: rate `omega` and
+    /// acceleration `alpha` (the hub follows them whatever the torque; friction and the
+    /// hub's own equation drop out). The rows of [`Plant::derivative`] for `q`.
+    pub fn flex_acceleration(
+        &self,
+        q: &[f64; N],
+        qd: &[f64; N],
+        omega: f64,
+        alpha: f64,
+    ) -> [f64; N] {
+        let m = &self.model;
+        let sq = mat_vec(&m.s, q);
+        let cqd = mat_vec(&m.cq, qd);
+        let kq = mat_vec(&m.kqq, q);
+        let rhs: [f64; N] =
+            core::array::from_fn(|i| -cqd[i] - kq[i] + omega * omega * sq[i] - m.h[i] * alpha);
+        mat_vec(&m.mqq_inv, &rhs)
+    }
+
     /// One classical RK4 step of length `h` with constant torque `tau`.
     pub fn rk4_step(&self, x: &State<N>, tau: f64, h: f64) -> State<N> {
         let k1 = self.derivative(x, tau);

@@ -9,7 +9,8 @@
 //! - `beam sweep`: Monte Carlo over parameter errors and payloads, against the PD baseline.
 //! - `beam pil`: the slew with the PIL firmware under QEMU as the drive.
 //! - `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
-//! - `beam drive`: a script of commands for a commanded drive (PIL firmware or host).
+//! - `beam drive`: a script of commands for a commanded drive (board, PIL firmware or host).
+//! - `beam replay`: a model against a log (hub prescribed, and torque open loop).
 //!
 //! `--json` prints one JSON object on stdout. Every error prints one line on stderr and
 //! exits with code 2.
@@ -31,6 +32,7 @@ mod calibrate_cmd;
 mod drive_cmd;
 mod optimize_cmd;
 mod pil_cmd;
+mod replay_cmd;
 mod sweep_cmd;
 
 use anyhow::{anyhow, bail, Context};
@@ -80,6 +82,9 @@ enum Command {
     /// `clear`, `status`, `stream N`, `wait S`, `done [S]`, `attach KG`, `fault N`; one per
     /// line), on the PIL firmware under QEMU (--pil) or the host (--sim).
     Drive(drive_cmd::DriveArgs),
+    /// A model against a log: the beam driven by the logged hub angle, the hub by the logged
+    /// torque; RMS errors and the vibration frequency in both.
+    Replay(replay_cmd::ReplayArgs),
 }
 
 /// One of beam-kinds' named enums, for clap: its names are the possible values, with help.
@@ -498,6 +503,7 @@ fn main() -> ExitCode {
         Command::Pil(a) => pil_cmd::run(&a),
         Command::Telemetry(a) => pil_cmd::telemetry(&a),
         Command::Drive(a) => drive_cmd::run(&a),
+        Command::Replay(a) => replay_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

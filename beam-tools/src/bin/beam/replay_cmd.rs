@@ -1,0 +1,126 @@
+//! `beam replay`: a model against a log: the beam driven by the logged hub angle, the hub by
+//! the logged torque, with the figures that say how well the model explains the log.
+
+use crate::PlantArgs;
+use anyhow::{bail, Context};
+use beam_tools::calibrate::{find_windows, read_log_with, replay, Columns, Windows};
+use beam_tools::replay::{replay_prescribed, replay_report};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct ReplayArgs {
+    /// The log (as `beam calibrate` reads it).
+    log: PathBuf,
+    /// The model: a preset or --params FILE (as `beam calibrate --out` writes), modes, payload.
+    #[command(flatten)]
+    plant: PlantArgs,
+    /// Which column holds what, and its unit (as for `beam calibrate`).
+    #[arg(long, value_name = "MAP", value_parser = Columns::parse)]
+    columns: Option<Columns>,
+    /// The windows, s from the log's first sample [default: found in the log].
+    #[arg(
+        long,
+        value_name = "START,END,SETTLE_END",
+        value_delimiter = ',',
+        num_args = 3
+    )]
+    windows: Option<Vec<f64>>,
+    /// Draw the model against the log: hub angle (torque replay) and root strain (hub
+    /// prescribed), .png or .svg.
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
+    if let Some(path) = &a.plot {
+        beam_tools::plot::check_extension(path)?;
+    }
+    let params = *crate::beam(&a.plant)?.params();
+    let file = a.log.display().to_string();
+    let text = std::fs::read_to_string(&a.log).with_context(|| file.clone())?;
+    let log = read_log_with(&text, &file, &a.columns.clone().unwrap_or_default())?;
+    let windows = match a.windows.as_deref() {
+        Some([s, e, z]) => Windows::given(*s, *e, *z, &log),
+        Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
+        None => find_windows(&log),
+    }
+    .with_context(|| file.clone())?;
+    let report = with_modes!(a.plant.modes, report_n(&params, &log, &windows))?;
+    if let Some(path) = &a.plot {
+        let (th, eps) = with_modes!(a.plant.modes, traces_n(&params, &log))?;
+        let t: Vec<f64> = log.t.iter().map(|x| x - log.t[0]).collect();
+        let pts = |v: &[f64], scale: f64| -> Vec<(f64, f64)> {
+            t.iter().zip(v).map(|(t, y)| (*t, y * scale)).collect()
+        };
+        let deg = 180.0 / std::f64::consts::PI;
+        let panels = vec![
+            (
+                "Hub angle (model: logged torque, open loop)",
+                "deg",
+                vec![("log", pts(&log.theta, deg)), ("model", pts(&th, deg))],
+            ),
+            (
+                "Root strain (model: logged hub angle)",
+                "microstrain",
+                vec![
+                    ("log", pts(&log.root_strain, 1e6)),
+                    ("model", pts(&eps, 1e6)),
+                ],
+            ),
+        ];
+        let title = format!("{} against {}", a.plant.preset.name(), file);
+        beam_tools::files::plot_atomically(path, |tmp| {
+            beam_tools::plot::plot_panels(&title, panels, tmp)
+        })?;
+    }
+    if a.json {
+        let mut v = serde_json::to_value(&report)?;
+        v["windows_s"] = serde_json::json!([windows.start_s, windows.end_s, windows.settle_end_s]);
+        println!("{v}");
+    } else {
+        let hz = |f: Option<f64>| f.map_or("-".into(), |f| format!("{f:.3} Hz"));
+        println!(
+            "{}: move {:.3}..{:.3} s, settling to {:.3} s",
+            file, windows.start_s, windows.end_s, windows.settle_end_s
+        );
+        println!(
+            "  hub (logged torque, open loop): RMS error {:.3} deg",
+            report.hub_rms_err_deg
+        );
+        println!(
+            "  root strain (logged hub angle): RMS error {:.2} ue of {:.2} ue RMS ({:.1} %)",
+            report.strain_rms_err_ue,
+            report.strain_rms_measured_ue,
+            100.0 * report.strain_rel_err
+        );
+        println!(
+            "  vibration after the move: log {}, model {}",
+            hz(report.freq_log_hz),
+            hz(report.freq_model_hz)
+        );
+    }
+    Ok(())
+}
+
+fn report_n<const N: usize>(
+    params: &model_core::BeamParams,
+    log: &beam_tools::calibrate::Log,
+    windows: &Windows,
+) -> anyhow::Result<beam_tools::replay::ReplayReport> {
+    replay_report::<N>(params, log, windows)
+        .context("the model broke down replaying this log (or its parameters are invalid)")
+}
+
+fn traces_n<const N: usize>(
+    params: &model_core::BeamParams,
+    log: &beam_tools::calibrate::Log,
+) -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
+    let t_end = log.t[log.t.len() - 1] - log.t[0];
+    let (th, _) = replay::<N>(params, log, t_end).context("the model broke down")?;
+    let eps = replay_prescribed::<N>(params, log).context("the model broke down")?;
+    Ok((th, eps))
+}
