@@ -121,6 +121,9 @@ pub enum CalibrateError {
     /// The starting guess is not a valid beam.
     #[error("the starting parameters")]
     Guess(#[from] model_core::ParamError),
+    /// No log was given.
+    #[error("no log to calibrate on")]
+    NoLogs,
     /// The model left its range during a step.
     #[error("step `{step}`: the model broke down on this log")]
     Breakdown {
@@ -512,27 +515,81 @@ pub fn replay<const N: usize>(
     Some((th, eps))
 }
 
-/// Weights and window of one step's fit error.
+/// Which part of each log a step fits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Part {
+    /// From the log's start to the end of the move.
+    Move,
+    /// The settling after the move.
+    Settle,
+    /// Both.
+    All,
+}
+
+impl Part {
+    fn window(self, w: &Windows) -> (f64, f64) {
+        match self {
+            Part::Move => (0.0, w.end_s),
+            Part::Settle => (w.end_s, w.settle_end_s),
+            Part::All => (0.0, w.settle_end_s),
+        }
+    }
+}
+
+/// Weights and part of one step's fit error.
 #[derive(Clone, Copy, Debug)]
 struct Fit {
-    window: (f64, f64),
+    part: Part,
     w1: f64,
     w2: f64,
 }
 
-/// RMS hub-angle error (rad) and RMS root-strain error (microstrain) over the window, and the
-/// weighted cost W1 mean((e_theta/count)^2) + W2 mean((e_strain/1e-6)^2).
-fn fit_error<const N: usize>(params: &BeamParams, log: &Log, fit: Fit) -> Option<(f64, f64, f64)> {
-    let (th, eps) = replay::<N>(params, log, fit.window.1)?;
+/// A log and its windows: one experiment to calibrate on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Experiment {
+    /// The log.
+    pub log: Log,
+    /// Its windows.
+    pub windows: Windows,
+}
+
+/// Sums of squared hub-angle error (rad^2) and root-strain error (ue^2) over the step's part
+/// of one log, and the number of samples.
+fn squared_errors<const N: usize>(
+    params: &BeamParams,
+    e: &Experiment,
+    part: Part,
+) -> Option<(f64, f64, usize)> {
+    let (a, b) = part.window(&e.windows);
+    let log = &e.log;
+    let (th, eps) = replay::<N>(params, log, b)?;
     let t0 = log.t[0];
     let (mut se, mut ss, mut n) = (0.0, 0.0, 0usize);
     for k in 0..th.len() {
         let t = log.t[k] - t0;
-        if t >= fit.window.0 - 1e-9 && t <= fit.window.1 + 1e-9 {
+        if t >= a - 1e-9 && t <= b + 1e-9 {
             se += (th[k] - log.theta[k]).powi(2);
             ss += ((eps[k] - log.root_strain[k]) * 1e6).powi(2);
             n += 1;
         }
+    }
+    Some((se, ss, n))
+}
+
+/// RMS hub-angle error (rad) and RMS root-strain error (microstrain) pooled over the
+/// experiments' parts, and the weighted cost W1 mean((e_theta/count)^2) +
+/// W2 mean((e_strain/1e-6)^2).
+fn fit_error<const N: usize>(
+    params: &BeamParams,
+    exps: &[Experiment],
+    fit: Fit,
+) -> Option<(f64, f64, f64)> {
+    let (mut se, mut ss, mut n) = (0.0, 0.0, 0usize);
+    for e in exps {
+        let (a, b, m) = squared_errors::<N>(params, e, fit.part)?;
+        se += a;
+        ss += b;
+        n += m;
     }
     let n = n.max(1) as f64;
     let c = count_rad();
@@ -543,25 +600,34 @@ fn fit_error<const N: usize>(params: &BeamParams, log: &Log, fit: Fit) -> Option
     ))
 }
 
+/// How well the identified model fits one log (over its move and settling).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogFit {
+    /// RMS hub-angle error, rad.
+    pub rms_theta_err_rad: f64,
+    /// RMS root-strain error, microstrain.
+    pub rms_strain_err_ue: f64,
+}
+
 /// One step's outcome.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepReport {
     /// What the step fits.
     pub name: &'static str,
-    /// The window, s.
+    /// The window, s, in the first log.
     pub window: (f64, f64),
     /// The parameters fitted in the step and their values after it.
     pub fitted: Vec<(&'static str, f64)>,
-    /// RMS hub-angle error over the window after the step, rad.
+    /// RMS hub-angle error over the window (of every log) after the step, rad.
     pub rms_theta_err_rad: f64,
-    /// RMS root-strain error over the window after the step, microstrain.
+    /// RMS root-strain error over the window (of every log) after the step, microstrain.
     pub rms_strain_err_ue: f64,
 }
 
 /// Fits the `which` parameters of `p`, within their ranges, to minimise the step's error.
 fn fit_step<const N: usize>(
     p: &mut BeamParams,
-    log: &Log,
+    log: &[Experiment],
     which: &[Fitted],
     fit: Fit,
     evals: usize,
@@ -632,6 +698,23 @@ pub fn calibrate<const N: usize>(
     evals: usize,
     windows: &Windows,
 ) -> Result<(BeamParams, Vec<StepReport>), CalibrateError> {
+    let exps = [Experiment {
+        log: log.clone(),
+        windows: *windows,
+    }];
+    calibrate_many::<N>(&exps, guess, evals).map(|(p, steps, _)| (p, steps))
+}
+
+/// Runs the four steps from `guess` on all the experiments at once (one parameter set for
+/// every log: each step's error pools its part of every log), with an `N`-mode model; and
+/// how well the result fits each log.
+pub fn calibrate_many<const N: usize>(
+    exps: &[Experiment],
+    guess: &BeamParams,
+    evals: usize,
+) -> Result<(BeamParams, Vec<StepReport>, Vec<LogFit>), CalibrateError> {
+    let log = exps;
+    let first = exps.first().ok_or(CalibrateError::NoLogs)?.windows;
     Beam::try_build(*guess)?;
     let mut p = *guess;
     let mut reports = Vec::new();
@@ -646,7 +729,7 @@ pub fn calibrate<const N: usize>(
         let (et, es, _) = fit_error::<N>(p, log, fit).ok_or(CalibrateError::Breakdown { step })?;
         reports.push(StepReport {
             name: step,
-            window: fit.window,
+            window: fit.part.window(&first),
             fitted: which
                 .iter()
                 .map(|f| (f.quantity.name(), f.quantity.get(p)))
@@ -656,11 +739,9 @@ pub fn calibrate<const N: usize>(
         });
         Ok::<(), CalibrateError>(())
     };
-    let w = windows;
-    let t_end = w.settle_end_s;
     // 1. Mass and stiffness, on the hub angle during the move.
     let fit1 = Fit {
-        window: (0.0, w.end_s),
+        part: Part::Move,
         w1: 1.0,
         w2: 0.0,
     };
@@ -669,7 +750,7 @@ pub fn calibrate<const N: usize>(
     report("mass and stiffness", fit1, &s1, &p)?;
     // 2. Friction, after the move.
     let fit2 = Fit {
-        window: (w.end_s, t_end),
+        part: Part::Settle,
         w1: 1.0,
         w2: 0.0,
     };
@@ -681,7 +762,7 @@ pub fn calibrate<const N: usize>(
     report("friction", fit2, &s2, &p)?;
     // 3. All of them, within +-20 % of steps 1-2.
     let fit3 = Fit {
-        window: (0.0, t_end),
+        part: Part::All,
         w1: 1.0,
         w2: 0.0,
     };
@@ -699,7 +780,7 @@ pub fn calibrate<const N: usize>(
     // 4. The strain side: where the root gauge sits and the beam coefficients (EI and
     // density, within 20 % of step 3), with the strain term weighted in.
     let fit4 = Fit {
-        window: (0.0, t_end),
+        part: Part::All,
         w1: 1.0,
         w2: 1.0,
     };
@@ -715,5 +796,19 @@ pub fn calibrate<const N: usize>(
     ];
     fit_step::<N>(&mut p, log, &s4, fit4, evals);
     report("strain side", fit4, &s4, &p)?;
-    Ok((p, reports))
+    let per_log = exps
+        .iter()
+        .map(|e| {
+            let (se, ss, n) =
+                squared_errors::<N>(&p, e, Part::All).ok_or(CalibrateError::Breakdown {
+                    step: "per-log fit",
+                })?;
+            let n = n.max(1) as f64;
+            Ok(LogFit {
+                rms_theta_err_rad: (se / n).sqrt(),
+                rms_strain_err_ue: (ss / n).sqrt(),
+            })
+        })
+        .collect::<Result<Vec<_>, CalibrateError>>()?;
+    Ok((p, reports, per_log))
 }

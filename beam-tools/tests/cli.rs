@@ -788,3 +788,39 @@ fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
         assert!(err.contains(says), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn calibrate_fits_several_logs_at_once_and_reports_each() {
+    let dir = scratch("calibrate-many");
+    let (a, b) = (dir.join("a.csv"), dir.join("b.csv"));
+    for (path, extra) in [
+        (&a, vec![]),
+        (&b, vec!["--move", "30", "--from", "-15", "--time", "0.2"]),
+    ] {
+        let mut args = vec![
+            "simulate",
+            "--controller",
+            "pd",
+            "--duration",
+            "0.8",
+            "--csv",
+            path.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        assert!(beam(&args).status.success());
+    }
+    let (sa, sb) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let v = json(&beam(&["calibrate", sa, sb, "--evals", "20", "--json"]));
+    let logs = v["logs"].as_array().unwrap();
+    assert_eq!(logs.len(), 2);
+    // Each log's windows are its own (PD 20/1 takes longer to come within 2 % of a 30 deg
+    // move, 0.6 deg, than within 2 % of the 180 deg slew): found per log, not shared.
+    let end = |i: usize| logs[i]["windows_s"][1].as_f64().unwrap();
+    assert!(end(1) > 0.2 && end(1) != end(0), "{logs:?}");
+    for l in logs {
+        assert!(l["rms_theta_err_rad"].as_f64().unwrap().is_finite());
+    }
+    let out = beam(&["calibrate", sa, sb, "--windows", "0,0.3,0.6"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("one log"));
+}

@@ -3,7 +3,8 @@
 use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::calibrate::{
-    calibrate, find_windows, read_log_with, Columns, StepReport, Windows, DEFAULT_EVALS,
+    calibrate_many, find_windows, read_log_with, Columns, Experiment, StepReport, Windows,
+    DEFAULT_EVALS,
 };
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
@@ -12,9 +13,11 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct CalibrateArgs {
-    /// The log: CSV with t_s, torque_nm, theta_rad, root_strain [, mid_strain] (or the columns
-    /// of --columns), uniformly sampled at any rate, starting at any angle.
-    log: PathBuf,
+    /// The logs: CSV with t_s, torque_nm, theta_rad, root_strain [, mid_strain] (or the
+    /// columns of --columns), uniformly sampled at any rate, starting at any angle. With
+    /// several, one parameter set is fitted to all of them.
+    #[arg(required = true, num_args = 1..)]
+    logs: Vec<PathBuf>,
     /// The starting guess (preset, or --params FILE), mode count and payload.
     #[command(flatten)]
     plant: PlantArgs,
@@ -24,13 +27,8 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "MAP", value_parser = Columns::parse)]
     columns: Option<Columns>,
     /// The windows, s from the log's first sample: move start, move end, end of settling
-    /// [default: found in the log].
-    #[arg(
-        long,
-        value_name = "START,END,SETTLE_END",
-        value_delimiter = ',',
-        num_args = 3
-    )]
+    /// [default: found in each log]; one log only.
+    #[arg(long, value_name = "START,END,SETTLE_END", value_delimiter = ',')]
     windows: Option<Vec<f64>>,
     /// COBYLA evaluations per local search.
     #[arg(long, default_value_t = DEFAULT_EVALS)]
@@ -47,19 +45,32 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.evals == 0 || a.evals > 1_000_000 {
         bail!("--evals {} must be 1..=1000000", a.evals);
     }
-    let guess = *crate::beam(&a.plant)?.params();
-    let text = std::fs::read_to_string(&a.log).with_context(|| a.log.display().to_string())?;
-    let file = a.log.display().to_string();
-    let log = read_log_with(&text, &file, &a.columns.clone().unwrap_or_default())?;
-    let windows = match a.windows.as_deref() {
-        Some([s, e, z]) => Windows::given(*s, *e, *z, &log),
-        Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
-        None => find_windows(&log),
+    if a.windows.as_ref().is_some_and(|w| w.len() != 3) {
+        bail!("--windows takes three times: START,END,SETTLE_END");
     }
-    .with_context(|| file.clone())?;
-    let (found, steps) = with_modes!(a.plant.modes, calibrate(&log, &guess, a.evals, &windows))?;
+    let guess = *crate::beam(&a.plant)?.params();
+    if a.windows.is_some() && a.logs.len() > 1 {
+        bail!("--windows applies to one log; with several, each log's windows are found in it");
+    }
+    let columns = a.columns.clone().unwrap_or_default();
+    let mut exps = vec![];
+    for path in &a.logs {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).with_context(|| file.clone())?;
+        let log = read_log_with(&text, &file, &columns)?;
+        let windows = match a.windows.as_deref() {
+            Some([s, e, z]) => Windows::given(*s, *e, *z, &log),
+            Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
+            None => find_windows(&log),
+        }
+        .with_context(|| file.clone())?;
+        exps.push(Experiment { log, windows });
+    }
+    let (found, steps, per_log) =
+        with_modes!(a.plant.modes, calibrate_many(&exps, &guess, a.evals))?;
+    let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
     if let Some(path) = &a.out {
-        let comment = format!("identified by beam calibrate from {}", a.log.display());
+        let comment = format!("identified by beam calibrate from {}", names.join(", "));
         let text = beam_tools::params_file::render(&found, &comment);
         beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
             .with_context(|| path.display().to_string())?;
@@ -74,22 +85,40 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                        "rms_theta_err_rad": s.rms_theta_err_rad, "rms_strain_err_ue": s.rms_strain_err_ue})
             })
             .collect();
-        let w = [windows.start_s, windows.end_s, windows.settle_end_s];
+        let logs: Vec<_> = exps
+            .iter()
+            .zip(&per_log)
+            .zip(&names)
+            .map(|((e, f), name)| {
+                let w = &e.windows;
+                json!({"log": name, "samples": e.log.t.len(),
+                       "windows_s": [w.start_s, w.end_s, w.settle_end_s],
+                       "rms_theta_err_rad": f.rms_theta_err_rad, "rms_strain_err_ue": f.rms_strain_err_ue})
+            })
+            .collect();
         println!(
             "{}",
-            json!({"steps": steps, "identified": fm, "guess": gm, "windows_s": w})
+            json!({"steps": steps, "identified": fm, "guess": gm, "logs": logs})
         );
         return Ok(());
     }
     println!(
-        "calibrated from {} ({} samples), guess: {} preset; move {:.3}..{:.3} s, settling to {:.3} s",
-        a.log.display(),
-        log.t.len(),
-        a.plant.preset.name(),
-        windows.start_s,
-        windows.end_s,
-        windows.settle_end_s
+        "calibrated from {} log(s), guess: {} preset",
+        exps.len(),
+        a.plant.preset.name()
     );
+    for ((e, f), name) in exps.iter().zip(&per_log).zip(&names) {
+        let w = &e.windows;
+        println!(
+            "  {name}: {} samples, move {:.3}..{:.3} s, settling to {:.3} s; fit: hub {:.2e} rad, root strain {:.2} ue RMS",
+            e.log.t.len(),
+            w.start_s,
+            w.end_s,
+            w.settle_end_s,
+            f.rms_theta_err_rad,
+            f.rms_strain_err_ue
+        );
+    }
     for s in &steps {
         print_step(s);
     }

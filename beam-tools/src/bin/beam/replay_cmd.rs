@@ -19,12 +19,7 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "MAP", value_parser = Columns::parse)]
     columns: Option<Columns>,
     /// The windows, s from the log's first sample [default: found in the log].
-    #[arg(
-        long,
-        value_name = "START,END,SETTLE_END",
-        value_delimiter = ',',
-        num_args = 3
-    )]
+    #[arg(long, value_name = "START,END,SETTLE_END", value_delimiter = ',')]
     windows: Option<Vec<f64>>,
     /// Draw the model against the log: hub angle (torque replay) and root strain (hub
     /// prescribed), .png or .svg.
@@ -38,6 +33,9 @@ pub struct ReplayArgs {
 pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.plot {
         beam_tools::plot::check_extension(path)?;
+    }
+    if a.windows.as_ref().is_some_and(|w| w.len() != 3) {
+        bail!("--windows takes three times: START,END,SETTLE_END");
     }
     let params = *crate::beam(&a.plant)?.params();
     let file = a.log.display().to_string();
