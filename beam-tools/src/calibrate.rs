@@ -691,6 +691,169 @@ fn fit_step<const N: usize>(
     }
 }
 
+/// How well one identified parameter is determined.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Uncertainty {
+    /// The parameter.
+    pub name: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// Its standard error (one sigma), from the fit's Jacobian.
+    pub std_err: f64,
+}
+
+/// Two parameters the logs cannot tell apart well.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Tradeoff {
+    /// One parameter.
+    pub a: &'static str,
+    /// The other.
+    pub b: &'static str,
+    /// Their estimated correlation.
+    pub correlation: f64,
+}
+
+/// Correlation above which two parameters are reported as trading against each other.
+pub const TRADEOFF_CORRELATION: f64 = 0.9;
+
+/// Standard errors and trade-offs of Jm, density, EI, viscous and Coulomb friction and the
+/// gauge position at `p`, from the Gauss-Newton approximation `cov = s^2 (J'J)^-1` of the
+/// residuals (hub angle in encoder counts, root strain in microstrain, over every log's move
+/// and settling), with `s^2` the residual variance and the Jacobian by central differences.
+/// They describe how the logs constrain the parameters near `p` (noise and quantisation),
+/// not how far the search stopped from the best fit. `None` if a parameter has no effect on
+/// the residuals (J'J singular) or the model breaks down.
+pub fn uncertainty<const N: usize>(
+    p: &BeamParams,
+    exps: &[Experiment],
+) -> Option<(Vec<Uncertainty>, Vec<Tradeoff>)> {
+    let which = [
+        Quantity::Jm,
+        Quantity::Density,
+        Quantity::Ei,
+        Quantity::Viscous,
+        Quantity::Coulomb,
+        Quantity::RootGauge,
+    ];
+    let residuals = |q: &BeamParams| -> Option<Vec<f64>> {
+        let mut r = vec![];
+        for e in exps {
+            let (a, b) = Part::All.window(&e.windows);
+            let (th, eps) = replay::<N>(q, &e.log, b)?;
+            let t0 = e.log.t[0];
+            for k in 0..th.len() {
+                let t = e.log.t[k] - t0;
+                if t >= a - 1e-9 && t <= b + 1e-9 {
+                    r.push((th[k] - e.log.theta[k]) / count_rad());
+                    r.push((eps[k] - e.log.root_strain[k]) / STRAIN_SCALE);
+                }
+            }
+        }
+        Some(r)
+    };
+    let r0 = residuals(p)?;
+    let m = r0.len();
+    let n = which.len();
+    if m <= n {
+        return None;
+    }
+    // Columns of J by central differences, with steps of 0.1 % of each value, but no
+    // smaller than a floor for the parameters that may sit at zero (friction, the gauge's
+    // position), where a relative step would vanish.
+    let mut jac = vec![vec![0.0; n]; m];
+    for (j, q) in which.iter().enumerate() {
+        let v = q.get(p);
+        let floor = match q {
+            Quantity::Coulomb => 1e-4,
+            Quantity::Viscous => 1e-6,
+            Quantity::RootGauge => 1e-4,
+            Quantity::Jm | Quantity::Density | Quantity::Ei => 0.0,
+        };
+        let h = (1e-3 * v.abs()).max(floor);
+        if h <= 0.0 {
+            return None;
+        }
+        let (mut up, mut down) = (*p, *p);
+        q.set(&mut up, v + h);
+        q.set(&mut down, (v - h).max(0.0));
+        let dh = q.get(&up) - q.get(&down);
+        let (ru, rd) = (residuals(&up)?, residuals(&down)?);
+        if ru.len() != m || rd.len() != m {
+            return None;
+        }
+        for i in 0..m {
+            jac[i][j] = (ru[i] - rd[i]) / dh;
+        }
+    }
+    let mut jtj = vec![vec![0.0; n]; n];
+    for row in &jac {
+        for a in 0..n {
+            for b in 0..n {
+                jtj[a][b] += row[a] * row[b];
+            }
+        }
+    }
+    let inv = invert(jtj)?;
+    let s2 = r0.iter().map(|x| x * x).sum::<f64>() / (m - n) as f64;
+    let se: Vec<f64> = (0..n).map(|i| (s2 * inv[i][i]).max(0.0).sqrt()).collect();
+    let out = which
+        .iter()
+        .zip(&se)
+        .map(|(q, &e)| Uncertainty {
+            name: q.name(),
+            value: q.get(p),
+            std_err: e,
+        })
+        .collect();
+    let mut trades = vec![];
+    for a in 0..n {
+        for b in a + 1..n {
+            let c = inv[a][b] / (inv[a][a] * inv[b][b]).sqrt();
+            if c.abs() > TRADEOFF_CORRELATION {
+                trades.push(Tradeoff {
+                    a: which[a].name(),
+                    b: which[b].name(),
+                    correlation: c,
+                });
+            }
+        }
+    }
+    Some((out, trades))
+}
+
+/// The inverse of a small symmetric positive-definite matrix by Gauss-Jordan elimination with
+/// partial pivoting; `None` if it is singular (to working precision).
+fn invert(mut a: Vec<Vec<f64>>) -> Option<Vec<Vec<f64>>> {
+    let n = a.len();
+    let mut inv: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
+        .collect();
+    let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0, f64::max);
+    for c in 0..n {
+        let pivot = (c..n).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
+        if a[pivot][c].abs() <= 1e-14 * scale {
+            return None;
+        }
+        a.swap(c, pivot);
+        inv.swap(c, pivot);
+        let d = a[c][c];
+        for j in 0..n {
+            a[c][j] /= d;
+            inv[c][j] /= d;
+        }
+        for r in 0..n {
+            if r != c {
+                let f = a[r][c];
+                for j in 0..n {
+                    a[r][j] -= f * a[c][j];
+                    inv[r][j] -= f * inv[c][j];
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
 /// Runs the four steps from `guess` on `log` with an `N`-mode model.
 pub fn calibrate<const N: usize>(
     log: &Log,

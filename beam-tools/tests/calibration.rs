@@ -90,6 +90,34 @@ fn calibration_recovers_the_plant_from_its_log() {
     assert!(rel(guess.jm_kgm2, truth.jm_kgm2) > 0.05 && rel(g.pinned_hz[0], t.pinned_hz[0]) > 0.02);
     // The fit explains the log down to about the encoder's resolution.
     assert!(steps[2].rms_theta_err_rad < 5.0 * count, "{:?}", steps[2]);
+    // How well each parameter is determined, and which trade against each other.
+    let exps = [beam_tools::calibrate::Experiment { log, windows: w }];
+    let (errs, trades) = beam_tools::calibrate::uncertainty::<3>(&found, &exps).unwrap();
+    let truth_of = |name: &str| match name {
+        "jm_kgm2" => truth.jm_kgm2,
+        "density_kg_m3" => truth.density_kg_m3,
+        "ei_nm2" => truth.ei_nm2,
+        "viscous_nms" => truth.viscous_nms,
+        "coulomb_nm" => truth.coulomb_nm,
+        _ => truth.root_gauge_m,
+    };
+    for u in &errs {
+        eprintln!(
+            "{:14} {:.5e} +- {:.2e}  truth {:.5e}  ({:.1} sigma)",
+            u.name,
+            u.value,
+            u.std_err,
+            truth_of(u.name),
+            (u.value - truth_of(u.name)).abs() / u.std_err
+        );
+        assert!(u.std_err.is_finite() && u.std_err > 0.0, "{u:?}");
+    }
+    eprintln!("{trades:?}");
+    // The trade-offs this experiment is known for: friction's two terms against each other,
+    // and the motor's inertia against the beam's (the hub angle sees their sum first).
+    let traded = |a: &str, b: &str| trades.iter().any(|t| t.a == a && t.b == b);
+    assert!(traded("viscous_nms", "coulomb_nm"), "{trades:?}");
+    assert!(traded("jm_kgm2", "density_kg_m3"), "{trades:?}");
 }
 
 #[test]

@@ -69,6 +69,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     let (found, steps, per_log) =
         with_modes!(a.plant.modes, calibrate_many(&exps, &guess, a.evals))?;
     let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
+    let spread = with_modes!(a.plant.modes, uncertainty_n(&found, &exps));
     if let Some(path) = &a.out {
         let comment = format!("identified by beam calibrate from {}", names.join(", "));
         let text = beam_tools::params_file::render(&found, &comment);
@@ -98,7 +99,9 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             .collect();
         println!(
             "{}",
-            json!({"steps": steps, "identified": fm, "guess": gm, "logs": logs})
+            json!({"steps": steps, "identified": fm, "guess": gm, "logs": logs,
+                   "uncertainty": spread.as_ref().map(|s| &s.0),
+                   "tradeoffs": spread.as_ref().map(|s| &s.1)})
         );
         return Ok(());
     }
@@ -121,6 +124,25 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     }
     for s in &steps {
         print_step(s);
+    }
+    match &spread {
+        Some((errs, trades)) => {
+            let parts: Vec<String> = errs
+                .iter()
+                .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
+                .collect();
+            println!(
+                "  one-sigma (noise only, near the result): {}",
+                parts.join(", ")
+            );
+            for t in trades {
+                println!(
+                    "  warning: {} and {} trade against each other (correlation {:.3}); the logs do not tell them apart",
+                    t.a, t.b, t.correlation
+                );
+            }
+        }
+        None => println!("  warning: a parameter has no effect on these logs; no uncertainties"),
     }
     println!("  identified: {fm}");
     println!("  guess was:  {gm}");
@@ -161,4 +183,13 @@ fn summary<const N: usize>(
         )
     };
     Ok((describe(found)?, describe(guess)?))
+}
+
+type Spread = (
+    Vec<beam_tools::calibrate::Uncertainty>,
+    Vec<beam_tools::calibrate::Tradeoff>,
+);
+
+fn uncertainty_n<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<Spread> {
+    beam_tools::calibrate::uncertainty::<N>(p, exps)
 }
