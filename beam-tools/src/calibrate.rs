@@ -488,7 +488,7 @@ impl Fitted {
 }
 
 /// Replays the log's torque through the plant with `params`: the simulated hub angle and root
-/// strain at each sample up to `t_end`. `None` if the parameters are invalid or the model
+/// strain at each sample up to `t_end`, with RK4 at a step inside its stability region. `None` if the parameters are invalid or the model
 /// breaks down.
 pub fn replay<const N: usize>(
     params: &BeamParams,
@@ -498,6 +498,11 @@ pub fn replay<const N: usize>(
     let model = ModalModel::<N>::try_build(&Beam::try_build(*params).ok()?).ok()?;
     let plant = Plant::new(model);
     let dt = log.t[1] - log.t[0];
+    // At least four RK4 steps a sample, and as many more as keep each step inside the
+    // method's stability region: near rest the smoothed Coulomb term is stiff, and a fixed
+    // quarter sample (0.5 ms at 500 Hz) is not (Plant::stable_step_s).
+    let steps = ((dt / plant.stable_step_s()).ceil() as usize).clamp(4, 10_000);
+    let h = dt / steps as f64;
     let mut x = State::<N>::at_rest(log.theta[0]);
     let (mut th, mut eps) = (Vec::new(), Vec::new());
     for k in 0..log.t.len() {
@@ -507,8 +512,8 @@ pub fn replay<const N: usize>(
             break;
         }
         let tau = plant.saturate(log.torque[k]);
-        for _ in 0..4 {
-            x = plant.rk4_step(&x, tau, dt / 4.0);
+        for _ in 0..steps {
+            x = plant.rk4_step(&x, tau, h);
         }
         plant.check_validity(&x).ok()?;
     }
