@@ -605,6 +605,20 @@ fn fit_error<const N: usize>(
     ))
 }
 
+/// How well `p` fits each log over its move and settling; `None` if the model breaks down.
+pub fn log_fits<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<Vec<LogFit>> {
+    exps.iter()
+        .map(|e| {
+            let (se, ss, n) = squared_errors::<N>(p, e, Part::All)?;
+            let n = n.max(1) as f64;
+            Some(LogFit {
+                rms_theta_err_rad: (se / n).sqrt(),
+                rms_strain_err_ue: (ss / n).sqrt(),
+            })
+        })
+        .collect()
+}
+
 /// How well the identified model fits one log (over its move and settling).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogFit {

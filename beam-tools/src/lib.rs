@@ -18,6 +18,7 @@ pub mod pil_host;
 pub mod plot;
 pub mod replay;
 pub mod serial_drive;
+pub mod split;
 pub mod sweep;
 pub mod table;
 pub mod telemetry;

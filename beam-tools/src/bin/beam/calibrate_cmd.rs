@@ -3,9 +3,10 @@
 use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::calibrate::{
-    calibrate_many, find_windows, read_log_with, Columns, Experiment, StepReport, Windows,
+    calibrate_many, find_windows, read_log_with, Columns, Experiment, LogFit, StepReport, Windows,
     DEFAULT_EVALS,
 };
+use beam_tools::split::calibrate_split;
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
 use serde_json::json;
@@ -30,6 +31,11 @@ pub struct CalibrateArgs {
     /// [default: found in each log]; one log only.
     #[arg(long, value_name = "START,END,SETTLE_END", value_delimiter = ',')]
     windows: Option<Vec<f64>>,
+    /// `paper`: the paper's four steps on the torque replay; `split`: the beam first, on
+    /// the strain with the hub prescribed, then the rigid body and friction with a torque
+    /// scale (see the README for how they compare).
+    #[arg(long, value_parser = ["paper", "split"], default_value = "paper")]
+    method: String,
     /// COBYLA evaluations per local search.
     #[arg(long, default_value_t = DEFAULT_EVALS)]
     evals: usize,
@@ -66,8 +72,15 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         .with_context(|| file.clone())?;
         exps.push(Experiment { log, windows });
     }
-    let (found, steps, per_log) =
-        with_modes!(a.plant.modes, calibrate_many(&exps, &guess, a.evals))?;
+    let (found, steps, per_log, split) = if a.method == "split" {
+        let (found, split) = with_modes!(a.plant.modes, calibrate_split(&exps, &guess, a.evals))?;
+        let per_log = with_modes!(a.plant.modes, log_fits(&found, &exps))?;
+        (found, vec![], per_log, Some(split))
+    } else {
+        let (found, steps, per_log) =
+            with_modes!(a.plant.modes, calibrate_many(&exps, &guess, a.evals))?;
+        (found, steps, per_log, None)
+    };
     let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
     let spread = with_modes!(a.plant.modes, uncertainty_n(&found, &exps));
     if let Some(path) = &a.out {
@@ -99,7 +112,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             .collect();
         println!(
             "{}",
-            json!({"steps": steps, "identified": fm, "guess": gm, "logs": logs,
+            json!({"method": a.method, "split": split, "steps": steps, "identified": fm, "guess": gm, "logs": logs,
                    "uncertainty": spread.as_ref().map(|s| &s.0),
                    "tradeoffs": spread.as_ref().map(|s| &s.1)})
         );
@@ -124,6 +137,12 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     }
     for s in &steps {
         print_step(s);
+    }
+    if let Some(s) = &split {
+        println!(
+            "  split: beam (hub prescribed) strain RMS error {:.2} ue with gauge scale {:.4}; rigid body hub RMS error {:.2e} rad with torque scale {:.4}",
+            s.beam_rms_strain_err_ue, s.gauge_scale, s.rigid_rms_theta_err_rad, s.torque_scale
+        );
     }
     match &spread {
         Some((errs, trades)) => {
@@ -192,4 +211,8 @@ type Spread = (
 
 fn uncertainty_n<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<Spread> {
     beam_tools::calibrate::uncertainty::<N>(p, exps)
+}
+
+fn log_fits<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> anyhow::Result<Vec<LogFit>> {
+    beam_tools::calibrate::log_fits::<N>(p, exps).context("the model broke down on a log")
 }
