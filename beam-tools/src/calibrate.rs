@@ -643,6 +643,52 @@ pub struct StepReport {
     pub rms_strain_err_ue: f64,
 }
 
+/// Minimises `f` over the unit cube in `dims` dimensions: a Latin hypercube of
+/// [`SAMPLES`] points (from `seed`), evaluated in parallel, then COBYLA with `evals`
+/// evaluations from `start` and the [`LOCAL_STARTS`] best samples (the costs here have
+/// several basins); returns the best point found (`start` if none is better).
+pub(crate) fn minimise(
+    dims: usize,
+    start: Vec<f64>,
+    evals: usize,
+    seed: u64,
+    f: &(dyn Fn(&[f64]) -> f64 + Sync),
+) -> Vec<f64> {
+    let mut scored: Vec<(f64, Vec<f64>)> = latin_hypercube(SAMPLES, dims, seed)
+        .into_par_iter()
+        .map(|u| (f(&u), u))
+        .collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut starts: Vec<Vec<f64>> = vec![start.clone()];
+    starts.extend(scored.into_iter().take(LOCAL_STARTS).map(|(_, u)| u));
+    let bounds = vec![(0.0, 1.0); dims];
+    starts
+        .par_iter()
+        .map(|u0| {
+            let cons: [&dyn cobyla::Func<()>; 0] = [];
+            let u = match cobyla::minimize(
+                |u: &[f64], _: &mut ()| f(u),
+                u0,
+                &bounds,
+                &cons,
+                (),
+                evals,
+                cobyla::RhoBeg::All(0.1),
+                Some(cobyla::StopTols {
+                    xtol_rel: 1e-6,
+                    ..Default::default()
+                }),
+            ) {
+                Ok((_, u, _)) | Err((_, u, _)) => u,
+            };
+            (f(&u), u)
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or(start, |(_, u)| u)
+}
+
 /// Fits the `which` parameters of `p`, within their ranges, to minimise the step's error.
 fn fit_step<const N: usize>(
     p: &mut BeamParams,
@@ -661,47 +707,15 @@ fn fit_step<const N: usize>(
         q
     };
     // ln of the error: it spans decades between a good and a poor fit.
-    let objective = |u: &[f64], _: &mut ()| {
-        fit_error::<N>(&at(u), log, fit).map_or(1e3, |e| e.2.max(1e-300).ln())
-    };
-    // Global stage: a Latin hypercube over the bounds, best first.
-    let candidates = latin_hypercube(SAMPLES, which.len(), 0x5EED ^ which.len() as u64);
-    let mut scored: Vec<(f64, Vec<f64>)> = candidates
-        .par_iter()
-        .map(|u| (objective(u, &mut ()), u.clone()))
-        .collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Local stage from the guess and the best few samples: the cost has several basins.
-    let mut starts: Vec<Vec<f64>> = vec![start];
-    starts.extend(scored.into_iter().take(LOCAL_STARTS).map(|(_, u)| u));
-    let bounds = vec![(0.0, 1.0); which.len()];
-    let finals: Vec<(f64, Vec<f64>)> = starts
-        .par_iter()
-        .map(|u0| {
-            let cons: [&dyn cobyla::Func<()>; 0] = [];
-            let u = match cobyla::minimize(
-                objective,
-                u0,
-                &bounds,
-                &cons,
-                (),
-                evals,
-                cobyla::RhoBeg::All(0.1),
-                Some(cobyla::StopTols {
-                    xtol_rel: 1e-6,
-                    ..Default::default()
-                }),
-            ) {
-                Ok((_, u, _)) | Err((_, u, _)) => u,
-            };
-            (objective(&u, &mut ()), u)
-        })
-        .collect();
-    let best = finals
-        .into_iter()
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, u)| u)
-        .unwrap_or_else(|| start_of(p, which));
+    let objective =
+        |u: &[f64]| fit_error::<N>(&at(u), log, fit).map_or(1e3, |e| e.2.max(1e-300).ln());
+    let best = minimise(
+        which.len(),
+        start,
+        evals,
+        0x5EED ^ which.len() as u64,
+        &objective,
+    );
     // Keep the start if the search made things worse (it reports its last point on failure).
     let before = fit_error::<N>(p, log, fit).map_or(f64::INFINITY, |e| e.2);
     let after = fit_error::<N>(&at(&best), log, fit).map_or(f64::INFINITY, |e| e.2);

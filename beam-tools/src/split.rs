@@ -7,11 +7,10 @@
 //! and amplitude both go with it), the modal damping and the gauge; the density, and with it
 //! EI at that ratio, comes from the torque side, where it trades with Jm.
 
-use crate::calibrate::{replay, CalibrateError, Experiment, Windows};
-use crate::optimize::{latin_hypercube, Param};
+use crate::calibrate::{minimise, replay, CalibrateError, Experiment, Windows};
+use crate::optimize::Param;
 use crate::replay::replay_prescribed;
 use model_core::{Beam, BeamParams};
-use rayon::prelude::*;
 
 /// What the split found besides the beam's parameters.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -24,51 +23,6 @@ pub struct SplitReport {
     pub beam_rms_strain_err_ue: f64,
     /// RMS hub-angle error of the rigid step (torque open loop, scale applied), rad.
     pub rigid_rms_theta_err_rad: f64,
-}
-
-/// Minimises `f` over the unit cube: a Latin hypercube, then COBYLA from the best few and
-/// from `start`; returns the best point.
-fn minimise(
-    dims: usize,
-    start: Vec<f64>,
-    evals: usize,
-    f: &(dyn Fn(&[f64]) -> f64 + Sync),
-) -> Vec<f64> {
-    let mut scored: Vec<(f64, Vec<f64>)> = latin_hypercube(96, dims, 0x5B17 ^ dims as u64)
-        .into_par_iter()
-        .map(|u| (f(&u), u))
-        .collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut starts = vec![start];
-    starts.extend(scored.into_iter().take(5).map(|(_, u)| u));
-    let bounds = vec![(0.0, 1.0); dims];
-    starts
-        .into_par_iter()
-        .map(|u0| {
-            let cons: [&dyn cobyla::Func<()>; 0] = [];
-            let obj = |u: &[f64], _: &mut ()| f(u);
-            let u = match cobyla::minimize(
-                obj,
-                &u0,
-                &bounds,
-                &cons,
-                (),
-                evals,
-                cobyla::RhoBeg::All(0.1),
-                Some(cobyla::StopTols {
-                    xtol_rel: 1e-6,
-                    ..Default::default()
-                }),
-            ) {
-                Ok((_, u, _)) | Err((_, u, _)) => u,
-            };
-            (f(&u), u)
-        })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, u)| u)
-        .unwrap_or_default()
 }
 
 fn window(w: &Windows) -> (f64, f64) {
@@ -147,7 +101,7 @@ pub fn calibrate_split<const N: usize>(
         .zip([g.ei_nm2, g.damping_ratio.max(1e-3), g.root_gauge_m])
         .map(|(p, v)| p.unit_of(v))
         .collect();
-    let ub = minimise(3, start, evals, &beam_cost);
+    let ub = minimise(3, start, evals, 0x5B17 ^ 3, &beam_cost);
     let beam = beam_at(&ub);
     let (pm, pp, mm, n) = strain_sums(&beam).ok_or(CalibrateError::Breakdown { step: "beam" })?;
     let gauge_scale = if pp > 0.0 { pm / pp } else { 1.0 };
@@ -233,7 +187,7 @@ pub fn calibrate_split<const N: usize>(
         ])
         .map(|(p, v)| p.unit_of(v))
         .collect();
-    let ur = minimise(5, start, evals, &rigid_cost);
+    let ur = minimise(5, start, evals, 0x5B17 ^ 5, &rigid_cost);
     let (found, torque_scale) = rigid_at(&ur);
     let (se, n) =
         hub_sq(&found, torque_scale).ok_or(CalibrateError::Breakdown { step: "rigid" })?;

@@ -24,7 +24,7 @@ mod pil {
     use firmware::ads1220::Ads1220;
     use firmware::amplifier::{Amplifier, TorqueScale};
     use firmware::config::{
-        build_commanded, build_controller_for, nearest, sequence_for, SLEW_FROM_RAD,
+        build_commanded, build_controller_for, nearest, sequence_for, MOVE_KNOTS, SLEW_FROM_RAD,
     };
     use firmware::drive::{Command, Drive};
     use firmware::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm};
@@ -91,10 +91,24 @@ mod pil {
     }
 
     /// The amplifier on the bench's fake pins.
-    fn amplifier(
+    /// The drive on the bench's fakes: the counter, the ADS1220 on the fake bus, the
+    /// amplifier on the fake pins. The sensor frame is copied into the bench before each
+    /// tick (a new conversion every tick, as the host's sensor model gives one); the
+    /// amplifier's outputs go nowhere, the torque travels back in the command frame.
+    #[allow(clippy::type_complexity)] // the fakes' types, named once here
+    fn bench_drive(
+        controller: model_core::Controller<MOVE_KNOTS>,
         bench: &Bench,
-    ) -> Result<Amplifier<Pwm<'_>, Direction<'_>, Enable<'_>, Line<'_>>, DriveError> {
-        Amplifier::new(
+    ) -> Result<
+        Drive<
+            MOVE_KNOTS,
+            Counter<'_>,
+            Ads1220<Bus<'_>, DataReady<'_>>,
+            Amplifier<Pwm<'_>, Direction<'_>, Enable<'_>, Line<'_>>,
+        >,
+        DriveError,
+    > {
+        let amp = Amplifier::new(
             Pwm(bench),
             Direction(bench),
             Enable(bench),
@@ -103,7 +117,13 @@ mod pil {
                 full_scale_nm: firmware::config::FULL_SCALE_TORQUE_NM,
             },
         )
-        .map_err(|_| DriveError::Config)
+        .map_err(|_| DriveError::Config)?;
+        Ok(Drive::new(
+            controller,
+            Counter(bench),
+            Ads1220::new(Bus(bench), DataReady(bench)),
+            amp,
+        ))
     }
 
     /// Copies one sensor frame into the bench, after checking its sequence number.
@@ -150,17 +170,8 @@ mod pil {
     fn run_sequence(link: &mut Link, kind: LawKind, payload_kg: f32) -> Result<(), DriveError> {
         let controller = build_controller_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
         let moves = sequence_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
-        // The sensor frame is copied into the bench before each tick; the ADS1220 and
-        // amplifier drivers run on the bench's fake bus and pins, a new conversion every
-        // tick, as the host's sensor model gives one. The amplifier's outputs go nowhere:
-        // the torque travels back in the command frame.
         let bench = Bench::new();
-        let mut drive = Drive::new(
-            controller,
-            Counter(&bench),
-            Ads1220::new(Bus(&bench), DataReady(&bench)),
-            amplifier(&bench)?,
-        );
+        let mut drive = bench_drive(controller, &bench)?;
         link.send(&DriveMessage::Ready)?;
         let mut expected = 0u32;
         let mut theta = SLEW_FROM_RAD;
@@ -195,12 +206,7 @@ mod pil {
         let (controller, mut commander) =
             build_commanded(kind, payload_kg, home_rad).map_err(|_| DriveError::Config)?;
         let bench = Bench::new();
-        let mut drive = Drive::new(
-            controller,
-            Counter(&bench),
-            Ads1220::new(Bus(&bench), DataReady(&bench)),
-            amplifier(&bench)?,
-        );
+        let mut drive = bench_drive(controller, &bench)?;
         link.send(&DriveMessage::Ready)?;
         let mut expected = 0u32;
         loop {
