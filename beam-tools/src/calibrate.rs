@@ -826,7 +826,7 @@ pub fn uncertainty<const N: usize>(
             }
         }
     }
-    let inv = invert(jtj)?;
+    let inv = crate::lsq::invert(jtj)?;
     let s2 = r0.iter().map(|x| x * x).sum::<f64>() / (m - n) as f64;
     let se: Vec<f64> = (0..n).map(|i| (s2 * inv[i][i]).max(0.0).sqrt()).collect();
     let out = which
@@ -852,39 +852,6 @@ pub fn uncertainty<const N: usize>(
         }
     }
     Some((out, trades))
-}
-
-/// The inverse of a small symmetric positive-definite matrix by Gauss-Jordan elimination with
-/// partial pivoting; `None` if it is singular (to working precision).
-fn invert(mut a: Vec<Vec<f64>>) -> Option<Vec<Vec<f64>>> {
-    let n = a.len();
-    let mut inv: Vec<Vec<f64>> = (0..n)
-        .map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
-        .collect();
-    let scale = (0..n).map(|i| a[i][i].abs()).fold(0.0, f64::max);
-    for c in 0..n {
-        let pivot = (c..n).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))?;
-        if a[pivot][c].abs() <= 1e-14 * scale {
-            return None;
-        }
-        a.swap(c, pivot);
-        inv.swap(c, pivot);
-        let d = a[c][c];
-        for j in 0..n {
-            a[c][j] /= d;
-            inv[c][j] /= d;
-        }
-        for r in 0..n {
-            if r != c {
-                let f = a[r][c];
-                for j in 0..n {
-                    a[r][j] -= f * a[c][j];
-                    inv[r][j] -= f * inv[c][j];
-                }
-            }
-        }
-    }
-    Some(inv)
 }
 
 /// Runs the four steps from `guess` on `log` with an `N`-mode model.

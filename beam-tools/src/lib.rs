@@ -12,6 +12,7 @@
 pub mod calibrate;
 pub mod drive_script;
 pub mod files;
+pub mod lsq;
 pub mod optimize;
 pub mod params_file;
 pub mod pil_host;

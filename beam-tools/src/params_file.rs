@@ -5,7 +5,60 @@ use model_core::{Beam, BeamParams};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// The file's fields: every `BeamParams` field, SI units, no extras.
+/// How a rig's logs read the physics (the `[sensors]` table of a parameter file): what
+/// `beam calibrate --method split` finds besides the beam, and what `beam replay` applies to
+/// a log before putting the model against it. The model itself (`simulate`, `optimize`,
+/// `sweep`) does not use them: they describe the instruments, not the beam.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Sensors {
+    /// The logged torque over the torque the hub received (1: the torque reads true).
+    pub torque_scale: f64,
+    /// The logged torque with none applied, N m (a bias of the torque's measurement or
+    /// estimate: the same in both directions of motion, unlike Coulomb friction).
+    pub torque_offset_nm: f64,
+    /// The root gauge's reading over the strain the beam's curvature implies.
+    pub gauge_scale: f64,
+}
+
+impl Default for Sensors {
+    fn default() -> Self {
+        Self {
+            torque_scale: 1.0,
+            torque_offset_nm: 0.0,
+            gauge_scale: 1.0,
+        }
+    }
+}
+
+impl Sensors {
+    /// The torque the hub received when the log says `logged`.
+    pub fn applied_torque(&self, logged: f64) -> f64 {
+        (logged - self.torque_offset_nm) / self.torque_scale
+    }
+
+    /// Why these cannot be used, if they cannot: the scales must be finite and positive,
+    /// the offset finite.
+    pub fn check(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("torque_scale", self.torque_scale),
+            ("gauge_scale", self.gauge_scale),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("sensors.{name}: {v} must be finite and > 0"));
+            }
+        }
+        if !self.torque_offset_nm.is_finite() {
+            return Err(format!(
+                "sensors.torque_offset_nm: {} must be finite",
+                self.torque_offset_nm
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The file's fields: every `BeamParams` field, SI units, and the optional `[sensors]`.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct File {
@@ -23,10 +76,17 @@ struct File {
     root_gauge_m: f64,
     mid_gauge_m: f64,
     torque_limit_nm: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    sensors: Option<Sensors>,
 }
 
 /// `params` as TOML, with a comment line on top.
 pub fn render(params: &BeamParams, comment: &str) -> String {
+    render_with(params, None, comment)
+}
+
+/// `params` and, if given, the rig's `[sensors]` as TOML, with a comment line on top.
+pub fn render_with(params: &BeamParams, sensors: Option<&Sensors>, comment: &str) -> String {
     let p = params;
     let f = File {
         length_m: p.length_m,
@@ -43,6 +103,7 @@ pub fn render(params: &BeamParams, comment: &str) -> String {
         root_gauge_m: p.root_gauge_m,
         mid_gauge_m: p.mid_gauge_m,
         torque_limit_nm: p.torque_limit_nm,
+        sensors: sensors.copied(),
     };
     format!("# {comment}\n{}", toml::to_string(&f).unwrap_or_default())
 }
@@ -74,6 +135,12 @@ pub enum ParamsFileReason {
 
 /// Reads and validates a parameter file; errors name the file and the field.
 pub fn load(path: &Path) -> Result<BeamParams, ParamsFileError> {
+    load_with_sensors(path).map(|(p, _)| p)
+}
+
+/// Reads and validates a parameter file and its `[sensors]` (the defaults, true readings,
+/// if it has none).
+pub fn load_with_sensors(path: &Path) -> Result<(BeamParams, Sensors), ParamsFileError> {
     let err = |reason| ParamsFileError {
         path: path.to_path_buf(),
         reason,
@@ -98,7 +165,11 @@ pub fn load(path: &Path) -> Result<BeamParams, ParamsFileError> {
         torque_limit_nm: f.torque_limit_nm,
     };
     Beam::try_build(p).map_err(|e| err(e.into()))?;
-    Ok(p)
+    let sensors = f.sensors.unwrap_or_default();
+    sensors
+        .check()
+        .map_err(|m| err(ParamsFileReason::Syntax(m)))?;
+    Ok((p, sensors))
 }
 
 #[cfg(test)]
@@ -120,6 +191,26 @@ mod tests {
             matches!(e.reason, ParamsFileReason::Invalid(p) if p.field == "ei_nm2"),
             "{e:?}"
         );
+        let sensors = Sensors {
+            torque_scale: 1.05,
+            torque_offset_nm: -0.01,
+            gauge_scale: 1.2,
+        };
+        std::fs::write(&path, render_with(&p, Some(&sensors), "test")).unwrap();
+        assert_eq!(load_with_sensors(&path).unwrap(), (p, sensors));
+        assert_eq!(load(&path).unwrap(), p);
+        let bad =
+            render_with(&p, Some(&sensors), "x").replace("gauge_scale = 1.2", "gauge_scale = 0");
+        let e = load(&path).and_then(|_| {
+            std::fs::write(&path, bad).unwrap();
+            load(&path)
+        });
+        assert!(
+            matches!(&e, Err(ParamsFileError { reason: ParamsFileReason::Syntax(m), .. }) if m.contains("gauge_scale")),
+            "{e:?}"
+        );
+        std::fs::write(&path, render(&p, "x")).unwrap();
+        assert_eq!(load_with_sensors(&path).unwrap().1, Sensors::default());
         std::fs::write(&path, render(&p, "x") + "colour = 3\n").unwrap();
         let e = load(&path).unwrap_err();
         assert!(

@@ -204,6 +204,7 @@ fn the_true_model_replayed_on_its_own_log_explains_it() {
     // discriminates. (After the move the logged strain rings at the closed loop's coupled
     // mode, about 4.4 Hz; the prescribed replay of the wrong beam mixes in its own clamped
     // mode, near 4.9 Hz instead of 5.5, and moves away from the log.)
+    use beam_tools::params_file::Sensors;
     use beam_tools::replay::replay_report;
     let truth = BeamParams::aluminium();
     let run = simulate(
@@ -219,7 +220,7 @@ fn the_true_model_replayed_on_its_own_log_explains_it() {
     write_trace_csv(&run, &mut csv).unwrap();
     let log = read_log(std::str::from_utf8(&csv).unwrap(), "log.csv").unwrap();
     let w = find_windows(&log).unwrap();
-    let good = replay_report::<3>(&truth, &log, &w).unwrap();
+    let good = replay_report::<3>(&truth, &Sensors::default(), &log, &w).unwrap();
     eprintln!("{good:?}");
     assert!(good.strain_rel_err < 0.15, "{good:?}");
     let (fl, fm) = (good.freq_log_hz.unwrap(), good.freq_model_hz.unwrap());
@@ -228,7 +229,7 @@ fn the_true_model_replayed_on_its_own_log_explains_it() {
         ei_nm2: truth.ei_nm2 * 0.8,
         ..truth
     };
-    let bad = replay_report::<3>(&wrong, &log, &w).unwrap();
+    let bad = replay_report::<3>(&wrong, &Sensors::default(), &log, &w).unwrap();
     eprintln!("{bad:?}");
     assert!(bad.strain_rel_err > 2.0 * good.strain_rel_err, "{bad:?}");
     let off = |r: &beam_tools::replay::ReplayReport| (r.freq_model_hz.unwrap() - fl).abs();

@@ -3,8 +3,9 @@
 
 use crate::PlantArgs;
 use anyhow::{bail, Context};
-use beam_tools::calibrate::{find_windows, read_log_with, replay, Columns, Windows};
-use beam_tools::replay::{replay_prescribed, replay_report};
+use beam_tools::calibrate::{find_windows, read_log_with, Columns, Windows};
+use beam_tools::params_file::Sensors;
+use beam_tools::replay::{replay_report, traces};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -38,6 +39,10 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
         bail!("--windows takes three times: START,END,SETTLE_END");
     }
     let params = *crate::beam(&a.plant)?.params();
+    let sensors = match &a.plant.params {
+        Some(path) => beam_tools::params_file::load_with_sensors(path)?.1,
+        None => Sensors::default(),
+    };
     let file = a.log.display().to_string();
     let text = std::fs::read_to_string(&a.log).with_context(|| file.clone())?;
     let log = read_log_with(&text, &file, &a.columns.clone().unwrap_or_default())?;
@@ -47,9 +52,9 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
         None => find_windows(&log),
     }
     .with_context(|| file.clone())?;
-    let report = with_modes!(a.plant.modes, report_n(&params, &log, &windows))?;
+    let report = with_modes!(a.plant.modes, report_n(&params, &sensors, &log, &windows))?;
     if let Some(path) = &a.plot {
-        let (th, eps) = with_modes!(a.plant.modes, traces_n(&params, &log))?;
+        let (th, eps) = with_modes!(a.plant.modes, traces_n(&params, &sensors, &log))?;
         let t: Vec<f64> = log.t.iter().map(|x| x - log.t[0]).collect();
         let pts = |v: &[f64], scale: f64| -> Vec<(f64, f64)> {
             t.iter().zip(v).map(|(t, y)| (*t, y * scale)).collect()
@@ -106,19 +111,18 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
 
 fn report_n<const N: usize>(
     params: &model_core::BeamParams,
+    sensors: &Sensors,
     log: &beam_tools::calibrate::Log,
     windows: &Windows,
 ) -> anyhow::Result<beam_tools::replay::ReplayReport> {
-    replay_report::<N>(params, log, windows)
+    replay_report::<N>(params, sensors, log, windows)
         .context("the model broke down replaying this log (or its parameters are invalid)")
 }
 
 fn traces_n<const N: usize>(
     params: &model_core::BeamParams,
+    sensors: &Sensors,
     log: &beam_tools::calibrate::Log,
 ) -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
-    let t_end = log.t[log.t.len() - 1] - log.t[0];
-    let (th, _) = replay::<N>(params, log, t_end).context("the model broke down")?;
-    let eps = replay_prescribed::<N>(params, log).context("the model broke down")?;
-    Ok((th, eps))
+    traces::<N>(params, sensors, log).context("the model broke down")
 }
