@@ -130,6 +130,25 @@ pub enum CalibrateError {
         /// The step.
         step: &'static str,
     },
+    /// A known density that is not a density.
+    #[error("the known density {0} kg/m^3 must be finite and > 0")]
+    Reference(f64),
+    /// The hub hardly moves in the windows: no torque balance to fit.
+    #[error("the hub moves in only {0} samples of the windows; the torque balance needs 20")]
+    TooLittleMotion(usize),
+    /// The torque balance came out unphysical: the logs do not determine the rigid body.
+    #[error(
+        "the torque balance gives Jm {jm:.3e} kg m^2, density {density:.4e} kg/m^3 and torque \
+         scale {torque_scale:.3} (each must be > 0): the logs do not determine the rigid body"
+    )]
+    Unphysical {
+        /// The hub's inertia found.
+        jm: f64,
+        /// The density found.
+        density: f64,
+        /// The torque scale found.
+        torque_scale: f64,
+    },
 }
 
 /// A logged run: uniformly sampled time, applied torque, measured hub angle and root strain.

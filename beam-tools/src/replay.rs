@@ -110,10 +110,12 @@ impl HubMotion {
 pub struct Prescribed {
     /// Root strain the model implies (gauge scale 1).
     pub root_strain: Vec<f64>,
-    /// The torque the beam (and tip) take from the hub, beyond the hub's own inertia Jm:
-    /// `(Mtt - Jm + q'Sq) alpha + h'q'' + 2 omega q'S q'`, N m. With the ratio EI/rho
-    /// held it scales with the density (no tip mass).
-    pub beam_torque_nm: Vec<f64>,
+    /// The part of the torque the beam (and tip) take from the hub that their flexing
+    /// adds to their rigid inertia's `(Mtt - Jm) alpha`: `q'Sq alpha + h'q'' + 2 omega
+    /// q'S q'`, N m. With the ratio EI/rho held it scales with the density (no tip mass).
+    pub flex_torque_nm: Vec<f64>,
+    /// The beam's (and tip's) rigid inertia about the hub's axis, `Mtt - Jm`, kg m^2.
+    pub beam_inertia_kgm2: f64,
 }
 
 /// The root strain of the beam driven by the logged hub motion, at each sample, with an
@@ -137,7 +139,6 @@ pub fn prescribed<const N: usize>(
     let plant = Plant::new(model);
     let dt = log.t[1] - log.t[0];
     let (omega, alpha) = (&hub.omega, &hub.alpha);
-    let beam_inertia = model.mtt - params.jm_kgm2;
     let mut torque = Vec::with_capacity(log.t.len());
     let (mut q, mut qd) = ([0.0f64; N], [0.0f64; N]);
     let mut eps = Vec::with_capacity(log.t.len());
@@ -148,7 +149,7 @@ pub fn prescribed<const N: usize>(
         let qdd = plant.flex_acceleration(&q, &qd, w, a);
         let sq = model_core::linalg::mat_vec(&model.s, &q);
         torque.push(
-            (beam_inertia + model_core::linalg::dot(&q, &sq)) * a
+            model_core::linalg::dot(&q, &sq) * a
                 + model_core::linalg::dot(&model.h, &qdd)
                 + 2.0 * w * model_core::linalg::dot(&sq, &qd),
         );
@@ -177,7 +178,8 @@ pub fn prescribed<const N: usize>(
     }
     Some(Prescribed {
         root_strain: eps,
-        beam_torque_nm: torque,
+        flex_torque_nm: torque,
+        beam_inertia_kgm2: model.mtt - params.jm_kgm2,
     })
 }
 

@@ -1,48 +1,361 @@
-//! Calibration with the physics split (`beam calibrate --method split`): first the beam, on
-//! the root strain with the hub prescribed from the logged angle, where torque and motor
-//! errors cannot leak in; then the rigid body and friction, on the hub angle driven by the
-//! logged torque, with a torque scale among the unknowns.
+//! Calibration with the physics split (`beam calibrate --method split`).
 //!
-//! With the hub prescribed and the gauge's scale free, the strain fixes EI/rho (frequency
-//! and amplitude both go with it), the modal damping and the gauge; the density, and with it
-//! EI at that ratio, comes from the torque side, where it trades with Jm.
+//! 1. **The beam**, on the root strain with the hub prescribed from the logged angle, where
+//!    torque and motor errors cannot leak in: EI/rho (the strain's frequency and its
+//!    amplitude per unit of hub motion both go with the ratio alone), the modal damping, the
+//!    gauge's position and, in closed form, the gauge's scale.
+//! 2. **The rigid body and friction**, from a torque balance on the hub, sample by sample
+//!    while it moves: the logged torque against `Jm alpha + R + c omega + Fc sgn(omega)` and
+//!    an offset, with `alpha` and `omega` from the logged angle and `R` the torque the beam
+//!    takes from the hub (the prescribed replay of step 1, proportional to the density at the
+//!    ratio found). That is linear least squares: no open-loop replay, so no torque error
+//!    integrated twice into the hub angle, and no search.
+//!
+//! **What one rig's logs cannot tell.** Scaling Jm, density, EI, both friction terms and the
+//! torque's scale together leaves every logged signal unchanged (the beam's equation
+//! depends on EI/rho only, the strain on the curvature, and the hub's equation is linear
+//! in the rest; `host-tests/tests/physics.rs` checks it). So the torque balance gives
+//! `s Jm`, `s rho`, `s c` and `s Fc` for an unknown torque scale `s`, and one more fact
+//! fixes the level: either the torque reads true (`s = 1`, the default), or the beam's
+//! density is known (a material's handbook value, `--known-density`), which then measures
+//! the torque's scale.
+//!
+//! Standard errors: step 1's from the Gauss-Newton approximation on the strain, with the
+//! residuals' lag-one autocorrelation counted (fewer independent samples than logged);
+//! step 2's from a moving-block bootstrap of the balance's samples.
 
-use crate::calibrate::{minimise, replay, CalibrateError, Experiment, Windows};
+use crate::calibrate::{minimise, replay, CalibrateError, Experiment, Tradeoff, Uncertainty};
+use crate::lsq::Normal;
 use crate::optimize::Param;
-use crate::replay::replay_prescribed;
+use crate::params_file::Sensors;
+use crate::replay::{corrected, hub_window_s, prescribed, HubMotion};
+use host_tests::plant::COULOMB_SMOOTHING_RAD_S;
 use model_core::{Beam, BeamParams};
+use rand::{rngs::StdRng, Rng, SeedableRng};
+
+/// What fixes the level of the masses, stiffness and friction (see the module's docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reference {
+    /// The logged torque reads true: the torque scale is 1.
+    Torque,
+    /// The beam's density is known, kg/m^3: the torque scale is measured.
+    Density(f64),
+}
+
+/// A sample counts as moving, for the torque balance, above this fraction of the log's
+/// peak hub rate: near rest the friction is static (anything up to Fc) and the balance's
+/// `sgn(omega)` does not hold.
+pub const MOVING_FRACTION: f64 = 0.05;
+
+/// Bootstrap resamples of the torque balance.
+pub const BOOTSTRAP: usize = 400;
+
+/// The shortest block of the bootstrap, s: twice the balance's interval, over which
+/// neighbouring rows share samples. Blocks are longer where the residuals stay correlated
+/// longer: twice the lag at which their autocorrelation first falls below 1/e.
+pub const MIN_BLOCK_S: f64 = 2.0 * BALANCE_INTERVAL_S;
+
+/// The offset is fitted only when the logs move both ways, each for at least this fraction
+/// of the moving samples: moving one way, Coulomb friction and an offset are the same
+/// constant.
+pub const BOTH_WAYS_FRACTION: f64 = 0.2;
 
 /// What the split found besides the beam's parameters.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SplitReport {
-    /// The strain gauge's reading over the strain the model implies.
-    pub gauge_scale: f64,
-    /// The logged torque over the torque the hub received.
-    pub torque_scale: f64,
+    /// The rig's instruments: torque scale (fitted only with a known density), torque
+    /// offset, gauge scale.
+    pub sensors: Sensors,
+    /// `torque` or `density`: what fixed the level.
+    pub reference: &'static str,
+    /// Whether the torque offset was fitted (the logs move both ways).
+    pub offset_fitted: bool,
     /// RMS root-strain error of the beam step (hub prescribed, gauge scale applied), ue.
     pub beam_rms_strain_err_ue: f64,
-    /// RMS hub-angle error of the rigid step (torque open loop, scale applied), rad.
-    pub rigid_rms_theta_err_rad: f64,
+    /// Samples in the torque balance.
+    pub balance_samples: usize,
+    /// RMS of the balance's residual, N m.
+    pub balance_rms_err_nm: f64,
+    /// RMS of the logged torque over the same samples, N m.
+    pub balance_rms_torque_nm: f64,
+    /// RMS hub-angle error of the torque replayed open loop through the found sensors,
+    /// over every log's move and settling, rad (a check, not fitted: it drifts).
+    pub replay_rms_theta_err_rad: f64,
+    /// One-sigma errors.
+    pub uncertainty: Vec<Uncertainty>,
+    /// Pairs the logs do not tell apart.
+    pub tradeoffs: Vec<Tradeoff>,
 }
 
-fn window(w: &Windows) -> (f64, f64) {
-    (0.0, w.settle_end_s)
+fn in_window(e: &Experiment, k: usize) -> bool {
+    let t = e.log.t[k] - e.log.t[0];
+    t >= e.windows.start_s - 1e-9 && t <= e.windows.settle_end_s + 1e-9
 }
 
-/// Fits one parameter set to all `exps` from `guess` with an `N`-mode model.
+/// Step 1's result.
+struct BeamFit {
+    params: BeamParams,
+    gauge_scale: f64,
+    rms_ue: f64,
+    /// Standard errors of ln EI/rho, ln damping, gauge position, gauge scale.
+    std_err: [f64; 4],
+    corr: [[f64; 4]; 4],
+}
+
+/// One row of the torque balance.
+#[derive(Clone, Copy, Debug)]
+struct Row {
+    x: [f64; 5],
+    y: f64,
+}
+
+/// How the split runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitOptions {
+    /// What fixes the level.
+    pub reference: Reference,
+    /// Fit the root gauge's position too. Off by default: it trades almost exactly against
+    /// the gauge's scale (correlation 0.997 on the other-rig log, which found 77 mm and a
+    /// scale of 1.23 for a gauge at the root reading true), and a position found that way
+    /// gives a model whose strain is not the gauge's reading. A ruler measures it better.
+    pub fit_gauge_position: bool,
+    /// COBYLA evaluations per local search of step 1.
+    pub evals: usize,
+}
+
+/// Fits one parameter set to all `exps` from `guess` with an `N`-mode model. Returns the
+/// beam, the rig's sensors and the report.
 pub fn calibrate_split<const N: usize>(
     exps: &[Experiment],
     guess: &BeamParams,
-    evals: usize,
-) -> Result<(BeamParams, SplitReport), CalibrateError> {
+    options: &SplitOptions,
+) -> Result<(BeamParams, Sensors, SplitReport), CalibrateError> {
+    let reference = options.reference;
     Beam::try_build(*guess)?;
     if exps.is_empty() {
         return Err(CalibrateError::NoLogs);
     }
-    let g = *guess;
-    // 1. The beam, hub prescribed: EI (at the guess's density: only EI/rho matters here),
-    //    modal damping and the root gauge's position; the gauge scale in closed form.
-    let beam_params = [
+    let mut g = *guess;
+    if let Reference::Density(rho) = reference {
+        if !(rho.is_finite() && rho > 0.0) {
+            return Err(CalibrateError::Reference(rho));
+        }
+        g.ei_nm2 *= rho / g.density_kg_m3;
+        g.density_kg_m3 = rho;
+    }
+    let window = hub_window_s(&g);
+    let hubs: Vec<HubMotion> = exps.iter().map(|e| HubMotion::of(&e.log, window)).collect();
+    let beam = fit_beam::<N>(exps, &hubs, &g, options)?;
+    // The balance's rates from a short fit: it needs them only at the intervals' ends,
+    // where the encoder's noise is averaged by the interval, while a wide fit's smoothing
+    // is a bias that correlates with the motion.
+    let rates: Vec<HubMotion> = exps
+        .iter()
+        .map(|e| HubMotion::of(&e.log, BALANCE_RATE_WINDOW_S))
+        .collect();
+    let ratio = beam.params.ei_nm2 / beam.params.density_kg_m3;
+
+    // 2. The torque balance. R scales with the density at the ratio (without a tip mass,
+    //    exactly; with one, nearly), so iterate on the density with the trusted torque.
+    let mut p = beam.params;
+    let mut rows = vec![];
+    let mut offset_fitted = false;
+    let mut coef = [0.0; 5];
+    for _ in 0..6 {
+        (rows, offset_fitted) = balance_rows::<N>(exps, &hubs, &rates, &p)?;
+        coef = fit_balance(&rows, offset_fitted)?;
+        let scale_now = coef[1];
+        if matches!(reference, Reference::Density(_)) || (scale_now - 1.0).abs() < 1e-9 {
+            break;
+        }
+        p.density_kg_m3 *= scale_now;
+        p.ei_nm2 = ratio * p.density_kg_m3;
+        Beam::try_build(p).map_err(|_| CalibrateError::Breakdown { step: "rigid" })?;
+    }
+    let derive = |c: &[f64; 5], p: &BeamParams| -> [f64; 6] {
+        // [Jm, density, viscous, Coulomb, torque scale, offset]
+        let s = match reference {
+            Reference::Torque => 1.0,
+            Reference::Density(_) => c[1],
+        };
+        let density = match reference {
+            Reference::Torque => p.density_kg_m3 * c[1],
+            Reference::Density(rho) => rho,
+        };
+        [c[0] / s, density, c[2] / s, c[3] / s, s, c[4]]
+    };
+    let d = derive(&coef, &p);
+    if !(d[0] > 0.0 && d[1] > 0.0 && d[4] > 0.0) {
+        return Err(CalibrateError::Unphysical {
+            jm: d[0],
+            density: d[1],
+            torque_scale: d[4],
+        });
+    }
+    let found = BeamParams {
+        jm_kgm2: d[0],
+        density_kg_m3: d[1],
+        ei_nm2: ratio * d[1],
+        viscous_nms: d[2].max(0.0),
+        coulomb_nm: d[3].max(0.0),
+        ..p
+    };
+    Beam::try_build(found).map_err(|_| CalibrateError::Breakdown { step: "rigid" })?;
+    let sensors = Sensors {
+        torque_scale: d[4],
+        torque_offset_nm: d[5],
+        gauge_scale: beam.gauge_scale,
+    };
+
+    // The balance's spread by a moving-block bootstrap.
+    let resid: Vec<f64> = rows
+        .iter()
+        .map(|r| r.y - r.x.iter().zip(&coef).map(|(x, c)| x * c).sum::<f64>())
+        .collect();
+    let dt0 = exps[0].log.t[1] - exps[0].log.t[0];
+    let block_s = (2.0 * decorrelation_lag(&resid) as f64 * dt0).max(MIN_BLOCK_S);
+    let boot = bootstrap(&rows, exps, offset_fitted, block_s)
+        .into_iter()
+        .map(|c| derive(&c, &p))
+        .collect::<Vec<_>>();
+    let names = [
+        "jm_kgm2",
+        "density_kg_m3",
+        "viscous_nms",
+        "coulomb_nm",
+        "torque_scale",
+        "torque_offset_nm",
+    ];
+    let mean_sd = |i: usize| -> f64 {
+        let n = boot.len().max(1) as f64;
+        let m = boot.iter().map(|b| b[i]).sum::<f64>() / n;
+        (boot.iter().map(|b| (b[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt()
+    };
+    let sd: Vec<f64> = (0..6).map(mean_sd).collect();
+    let mut uncertainty = vec![];
+    let mut add = |name: &'static str, value: f64, std_err: f64| {
+        uncertainty.push(Uncertainty {
+            name,
+            value,
+            std_err,
+        })
+    };
+    add("jm_kgm2", found.jm_kgm2, sd[0]);
+    if matches!(reference, Reference::Torque) {
+        add("density_kg_m3", found.density_kg_m3, sd[1]);
+    }
+    // EI = ratio x density: relative errors add in quadrature (step 1 and step 2 are
+    // fitted on different signals).
+    let rel_ei = (beam.std_err[0].powi(2) + (sd[1] / found.density_kg_m3).powi(2)).sqrt();
+    add("ei_nm2", found.ei_nm2, rel_ei * found.ei_nm2);
+    add("viscous_nms", found.viscous_nms, sd[2]);
+    add("coulomb_nm", found.coulomb_nm, sd[3]);
+    if matches!(reference, Reference::Density(_)) {
+        add("torque_scale", sensors.torque_scale, sd[4]);
+    }
+    if offset_fitted {
+        add("torque_offset_nm", sensors.torque_offset_nm, sd[5]);
+    }
+    add(
+        "damping_ratio",
+        found.damping_ratio,
+        beam.std_err[1] * found.damping_ratio,
+    );
+    if options.fit_gauge_position {
+        add("root_gauge_m", found.root_gauge_m, beam.std_err[2]);
+    }
+    add("gauge_scale", sensors.gauge_scale, beam.std_err[3]);
+    let mut tradeoffs = vec![];
+    let beam_names = [
+        "ei_over_density",
+        "damping_ratio",
+        "root_gauge_m",
+        "gauge_scale",
+    ];
+    for a in 0..4 {
+        for b in a + 1..4 {
+            let c = beam.corr[a][b];
+            if c.abs() > crate::calibrate::TRADEOFF_CORRELATION {
+                tradeoffs.push(Tradeoff {
+                    a: beam_names[a],
+                    b: beam_names[b],
+                    correlation: c,
+                });
+            }
+        }
+    }
+    let used: Vec<usize> = (0..6)
+        .filter(|&i| match i {
+            1 => matches!(reference, Reference::Torque),
+            4 => matches!(reference, Reference::Density(_)),
+            5 => offset_fitted,
+            _ => true,
+        })
+        .collect();
+    for (ia, &a) in used.iter().enumerate() {
+        for &b in &used[ia + 1..] {
+            let c = correlation(&boot, a, b);
+            if c.abs() > crate::calibrate::TRADEOFF_CORRELATION {
+                tradeoffs.push(Tradeoff {
+                    a: names[a],
+                    b: names[b],
+                    correlation: c,
+                });
+            }
+        }
+    }
+
+    // Figures: the balance's residual, and the open-loop replay as a check.
+    let (mut se, mut sy) = (0.0, 0.0);
+    for r in &rows {
+        let fit: f64 = r.x.iter().zip(&coef).map(|(x, c)| x * c).sum();
+        se += (r.y - fit).powi(2);
+        sy += r.y * r.y;
+    }
+    let nr = rows.len().max(1) as f64;
+    let (mut th_se, mut th_n) = (0.0, 0usize);
+    for e in exps {
+        let log = corrected(&e.log, &sensors);
+        let (th, _) = replay::<N>(&found, &log, e.windows.settle_end_s)
+            .ok_or(CalibrateError::Breakdown { step: "rigid" })?;
+        for (k, th) in th.iter().enumerate() {
+            if in_window(e, k) {
+                th_se += (th - log.theta[k]).powi(2);
+                th_n += 1;
+            }
+        }
+    }
+    Ok((
+        found,
+        sensors,
+        SplitReport {
+            sensors,
+            reference: match reference {
+                Reference::Torque => "torque",
+                Reference::Density(_) => "density",
+            },
+            offset_fitted,
+            beam_rms_strain_err_ue: beam.rms_ue,
+            balance_samples: rows.len(),
+            balance_rms_err_nm: (se / nr).sqrt(),
+            balance_rms_torque_nm: (sy / nr).sqrt(),
+            replay_rms_theta_err_rad: (th_se / th_n.max(1) as f64).sqrt(),
+            uncertainty,
+            tradeoffs,
+        },
+    ))
+}
+
+/// Step 1: EI (at `g`'s density), damping and gauge position by search, the gauge's scale
+/// in closed form, on every log's move and settling.
+fn fit_beam<const N: usize>(
+    exps: &[Experiment],
+    hubs: &[HubMotion],
+    g: &BeamParams,
+    options: &SplitOptions,
+) -> Result<BeamFit, CalibrateError> {
+    let dims = if options.fit_gauge_position { 3 } else { 2 };
+    let ranges = [
         Param {
             name: "ei_nm2",
             lo: g.ei_nm2 / 2.0,
@@ -62,142 +375,307 @@ pub fn calibrate_split<const N: usize>(
             log: false,
         },
     ];
-    let beam_at = |u: &[f64]| BeamParams {
-        ei_nm2: beam_params[0].gain_at(u[0]),
-        damping_ratio: beam_params[1].gain_at(u[1]),
-        root_gauge_m: beam_params[2].gain_at(u[2]),
-        ..g
+    let at = |u: &[f64]| BeamParams {
+        ei_nm2: ranges[0].gain_at(u[0]),
+        damping_ratio: ranges[1].gain_at(u[1]),
+        root_gauge_m: if dims == 3 {
+            ranges[2].gain_at(u[2])
+        } else {
+            g.root_gauge_m
+        },
+        ..*g
     };
-    // Sums of model*measured, model^2, measured^2 over every log's window (ue).
-    let strain_sums = |p: &BeamParams| -> Option<(f64, f64, f64, usize)> {
-        let (mut pm, mut pp, mut mm, mut n) = (0.0, 0.0, 0.0, 0usize);
-        for e in exps {
-            let eps = replay_prescribed::<N>(p, &e.log)?;
-            let (a, b) = window(&e.windows);
-            for (k, model) in eps.iter().enumerate() {
-                let t = e.log.t[k] - e.log.t[0];
-                if t >= a - 1e-9 && t <= b + 1e-9 {
-                    let (x, y) = (model * 1e6, e.log.root_strain[k] * 1e6);
-                    pm += x * y;
-                    pp += x * x;
-                    mm += y * y;
-                    n += 1;
+    // Model and measured strain (ue) over every log's window.
+    let strains = |p: &BeamParams| -> Option<(Vec<f64>, Vec<f64>)> {
+        let (mut model, mut measured) = (vec![], vec![]);
+        for (e, hub) in exps.iter().zip(hubs) {
+            let eps = prescribed::<N>(p, &e.log, hub)?.root_strain;
+            for (k, m) in eps.iter().enumerate() {
+                if in_window(e, k) {
+                    model.push(m * 1e6);
+                    measured.push(e.log.root_strain[k] * 1e6);
                 }
             }
         }
-        Some((pm, pp, mm, n))
+        Some((model, measured))
     };
-    // With the best gauge scale s = pm/pp, the residual is mm - pm^2/pp.
-    let beam_cost = |u: &[f64]| -> f64 {
-        match strain_sums(&beam_at(u)) {
-            Some((pm, pp, mm, n)) if pp > 0.0 => {
-                ((mm - pm * pm / pp).max(0.0) / n as f64 + 1e-12).ln()
+    // With the best gauge scale s = pm/pp the residual is mm - pm^2/pp.
+    let sums = |m: &[f64], y: &[f64]| -> (f64, f64, f64) {
+        m.iter()
+            .zip(y)
+            .fold((0.0, 0.0, 0.0), |(pm, pp, mm), (a, b)| {
+                (pm + a * b, pp + a * a, mm + b * b)
+            })
+    };
+    let cost = |u: &[f64]| -> f64 {
+        match strains(&at(u)) {
+            Some((m, y)) if !m.is_empty() => {
+                let (pm, pp, mm) = sums(&m, &y);
+                if pp > 0.0 {
+                    ((mm - pm * pm / pp).max(0.0) / m.len() as f64 + 1e-12).ln()
+                } else {
+                    1e3
+                }
             }
             _ => 1e3,
         }
     };
-    let start: Vec<f64> = beam_params
+    let start: Vec<f64> = ranges
         .iter()
         .zip([g.ei_nm2, g.damping_ratio.max(1e-3), g.root_gauge_m])
         .map(|(p, v)| p.unit_of(v))
+        .take(dims)
         .collect();
-    let ub = minimise(3, start, evals, 0x5B17 ^ 3, &beam_cost);
-    let beam = beam_at(&ub);
-    let (pm, pp, mm, n) = strain_sums(&beam).ok_or(CalibrateError::Breakdown { step: "beam" })?;
-    let gauge_scale = if pp > 0.0 { pm / pp } else { 1.0 };
-    let beam_err = ((mm - pm * pm / pp.max(1e-300)).max(0.0) / n.max(1) as f64).sqrt();
-    let ratio = beam.ei_nm2 / beam.density_kg_m3;
-    // 2. The rigid body and friction, torque open loop: Jm, density (EI follows at the
-    //    ratio), viscous and Coulomb friction, and the torque scale.
-    let rigid_params = [
-        Param {
-            name: "jm_kgm2",
-            lo: g.jm_kgm2 / 3.0,
-            hi: g.jm_kgm2 * 3.0,
-            log: true,
-        },
-        Param {
-            name: "density_kg_m3",
-            lo: g.density_kg_m3 / 2.0,
-            hi: g.density_kg_m3 * 2.0,
-            log: true,
-        },
-        Param {
-            name: "viscous_nms",
-            lo: 1e-6,
-            hi: (10.0 * g.viscous_nms).max(0.05),
-            log: true,
-        },
-        Param {
-            name: "coulomb_nm",
-            lo: 0.0,
-            hi: (4.0 * g.coulomb_nm).max(0.1),
-            log: false,
-        },
-        Param {
-            name: "torque_scale",
-            lo: 0.7,
-            hi: 1.3,
-            log: false,
-        },
-    ];
-    let rigid_at = |u: &[f64]| -> (BeamParams, f64) {
-        let density = rigid_params[1].gain_at(u[1]);
-        (
-            BeamParams {
-                jm_kgm2: rigid_params[0].gain_at(u[0]),
-                density_kg_m3: density,
-                ei_nm2: ratio * density,
-                viscous_nms: rigid_params[2].gain_at(u[2]),
-                coulomb_nm: rigid_params[3].gain_at(u[3]),
-                ..beam
-            },
-            rigid_params[4].gain_at(u[4]),
-        )
-    };
-    let hub_sq = |p: &BeamParams, scale: f64| -> Option<(f64, usize)> {
-        let (mut se, mut n) = (0.0, 0usize);
-        for e in exps {
-            let mut log = e.log.clone();
-            log.torque.iter_mut().for_each(|u| *u /= scale);
-            let (a, b) = window(&e.windows);
-            let (th, _) = replay::<N>(p, &log, b)?;
-            for (k, th) in th.iter().enumerate() {
-                let t = log.t[k] - log.t[0];
-                if t >= a - 1e-9 && t <= b + 1e-9 {
-                    se += (th - log.theta[k]).powi(2);
-                    n += 1;
+    let u = minimise(dims, start, options.evals, 0x5B17 ^ dims as u64, &cost);
+    let params = at(&u);
+    let (m0, y) = strains(&params).ok_or(CalibrateError::Breakdown { step: "beam" })?;
+    let (pm, pp, mm) = sums(&m0, &y);
+    if !(pp > 0.0) {
+        return Err(CalibrateError::Breakdown { step: "beam" });
+    }
+    let scale = pm / pp;
+    let n = m0.len();
+    let rms_ue = ((mm - pm * pm / pp).max(0.0) / n as f64).sqrt();
+
+    // Gauss-Newton at the result: columns d(scale x model)/d(ln EI, ln zeta, gauge) by
+    // central differences, and the model itself for the scale.
+    // (At the gauge's lower bound the difference is one-sided: the step down is clamped.)
+    let steps = [1e-3, 1e-3, 1e-4];
+    let mut cols: Vec<Vec<f64>> = vec![];
+    for (j, h) in steps.iter().enumerate().take(dims) {
+        let coord = |q: &BeamParams| match j {
+            0 => q.ei_nm2.ln(),
+            1 => q.damping_ratio.ln(),
+            _ => q.root_gauge_m,
+        };
+        let shifted = |sign: f64| {
+            let mut q = params;
+            match j {
+                0 => q.ei_nm2 *= (sign * h).exp(),
+                1 => q.damping_ratio *= (sign * h).exp(),
+                _ => q.root_gauge_m = (q.root_gauge_m + sign * h).max(0.0),
+            }
+            q
+        };
+        let (qu, qd) = (shifted(1.0), shifted(-1.0));
+        let dh = coord(&qu) - coord(&qd);
+        let (Some((up, _)), Some((down, _))) = (strains(&qu), strains(&qd)) else {
+            return Err(CalibrateError::Breakdown { step: "beam" });
+        };
+        cols.push(
+            up.iter()
+                .zip(&down)
+                .map(|(a, b)| scale * (a - b) / dh)
+                .collect(),
+        );
+    }
+    cols.push(m0.clone());
+    let resid: Vec<f64> = m0.iter().zip(&y).map(|(m, y)| y - scale * m).collect();
+    let k = cols.len();
+    let mut normal = Normal::new(k);
+    for i in 0..n {
+        let x: Vec<f64> = cols.iter().map(|c| c[i]).collect();
+        normal.add(&x, resid[i]);
+    }
+    let inv = normal.solve().map(|f| f.xtx_inv);
+    let s2 = resid.iter().map(|r| r * r).sum::<f64>() / (n.saturating_sub(k)).max(1) as f64;
+    let inflation = autocorrelation_inflation(&resid);
+    // Rows and columns in the order [ln EI, ln zeta, gauge position, gauge scale]; the
+    // position's are zero when it is held.
+    let slot = |i: usize| if i < dims { i } else { 3 };
+    let (mut std_err, mut corr) = ([0.0; 4], [[0.0; 4]; 4]);
+    match inv {
+        Some(inv) => {
+            for i in 0..k {
+                std_err[slot(i)] = (s2 * inflation * inv[i][i]).max(0.0).sqrt();
+                for j in 0..k {
+                    corr[slot(i)][slot(j)] = inv[i][j] / (inv[i][i] * inv[j][j]).sqrt();
                 }
             }
         }
-        Some((se, n))
-    };
-    let rigid_cost = |u: &[f64]| -> f64 {
-        let (p, s) = rigid_at(u);
-        hub_sq(&p, s).map_or(1e3, |(se, n)| (se / n.max(1) as f64 + 1e-20).ln())
-    };
-    let start: Vec<f64> = rigid_params
-        .iter()
-        .zip([
-            g.jm_kgm2,
-            g.density_kg_m3,
-            g.viscous_nms.max(1e-6),
-            g.coulomb_nm,
-            1.0,
-        ])
-        .map(|(p, v)| p.unit_of(v))
-        .collect();
-    let ur = minimise(5, start, evals, 0x5B17 ^ 5, &rigid_cost);
-    let (found, torque_scale) = rigid_at(&ur);
-    let (se, n) =
-        hub_sq(&found, torque_scale).ok_or(CalibrateError::Breakdown { step: "rigid" })?;
-    Ok((
-        found,
-        SplitReport {
-            gauge_scale,
-            torque_scale,
-            beam_rms_strain_err_ue: beam_err,
-            rigid_rms_theta_err_rad: (se / n.max(1) as f64).sqrt(),
-        },
-    ))
+        None => std_err = [f64::INFINITY; 4],
+    }
+    Ok(BeamFit {
+        params,
+        gauge_scale: scale,
+        rms_ue,
+        std_err,
+        corr,
+    })
+}
+
+/// `(1 + r) / (1 - r)` for the residuals' lag-one autocorrelation `r` (clamped to
+/// 0..0.99): how many logged samples make one independent one, for an AR(1) residual.
+fn autocorrelation_inflation(r: &[f64]) -> f64 {
+    let var: f64 = r.iter().map(|x| x * x).sum();
+    if var <= 0.0 || r.len() < 3 {
+        return 1.0;
+    }
+    let lag: f64 = r.windows(2).map(|w| w[0] * w[1]).sum();
+    let rho = (lag / var).clamp(0.0, 0.99);
+    (1.0 + rho) / (1.0 - rho)
+}
+
+/// Length of the intervals the torque balance is integrated over, s. (On the other-rig
+/// log over eight noise draws: at 20 ms the rates' noise biased Jm by -28 %; 50 ms and
+/// 100 ms gave -1.8 % and +2.8 %.)
+pub const BALANCE_INTERVAL_S: f64 = 0.05;
+
+/// Half-width of the quadratic fit that gives the balance its hub rates, s (at least two
+/// samples). (The same draws: 5 ms gave Jm -1.8 +- 1.7 % and a torque scale 0.3 % off;
+/// 15 ms, the prescribed beam's window there, +3.4 % and 0.8 % off, outside the
+/// intervals for viscous friction in seven draws of eight.)
+pub const BALANCE_RATE_WINDOW_S: f64 = 0.005;
+
+/// The torque balance's rows over every log's move and settling, hub moving throughout the
+/// interval, at `p`; and whether the logs move both ways enough to fit an offset. Each row
+/// is the balance integrated over [`BALANCE_INTERVAL_S`] from a sample (intervals overlap):
+/// the logged torque's integral (exact for a torque held over each sample) against the
+/// change of the hub's rate (from `rates`), the beam's torque R (its rigid inertia times
+/// the same change, plus the integral of its flexing's part from the beam driven by
+/// `hubs`, as in step 1), the change of angle, the integral of sgn(omega) (the plant's
+/// smoothed sign) and the interval's length. Integrated, the encoder's steps enter through
+/// two rate estimates a row instead of an acceleration at every sample, whose noise would
+/// bias Jm (errors in the regressor); and the flexing comes from the smooth hub that fits
+/// the strain, not from the encoder's steps.
+fn balance_rows<const N: usize>(
+    exps: &[Experiment],
+    hubs: &[HubMotion],
+    rates: &[HubMotion],
+    p: &BeamParams,
+) -> Result<(Vec<Row>, bool), CalibrateError> {
+    let mut rows = vec![];
+    let (mut up, mut down) = (0usize, 0usize);
+    for ((e, hub), rate) in exps.iter().zip(hubs).zip(rates) {
+        let pr =
+            prescribed::<N>(p, &e.log, hub).ok_or(CalibrateError::Breakdown { step: "rigid" })?;
+        let dt = e.log.t[1] - e.log.t[0];
+        let w = ((BALANCE_INTERVAL_S / dt).round() as usize).max(2);
+        let omega = &rate.omega;
+        let peak = omega.iter().fold(0.0f64, |a, w| a.max(w.abs()));
+        let moving: Vec<bool> = (0..e.log.t.len())
+            .map(|k| in_window(e, k) && omega[k].abs() > MOVING_FRACTION * peak)
+            .collect();
+        let sgn: Vec<f64> = omega
+            .iter()
+            .map(|w| (w / COULOMB_SMOOTHING_RAD_S).tanh())
+            .collect();
+        let trapezoid = |v: &[f64], k: usize| -> f64 {
+            dt * (0.5 * v[k] + v[k + 1..k + w].iter().sum::<f64>() + 0.5 * v[k + w])
+        };
+        // An interval counts when the hub moves throughout it, one way, and covers at least
+        // half the angle the threshold rate would: an encoder dithering by a count at rest
+        // (a PD hub parked on a count's edge) shows rates of a few percent of a slow move's
+        // peak, both ways, but no net angle.
+        let min_angle = 0.5 * MOVING_FRACTION * peak * w as f64 * dt;
+        for k in 0..e.log.t.len().saturating_sub(w) {
+            let one_way = omega[k..=k + w]
+                .iter()
+                .all(|x| x.signum() == omega[k].signum());
+            let angle = e.log.theta[k + w] - e.log.theta[k];
+            if !moving[k..=k + w].iter().all(|&m| m)
+                || !one_way
+                || angle.abs() < min_angle
+                || angle.signum() != omega[k].signum()
+            {
+                continue;
+            }
+            if omega[k] > 0.0 {
+                up += 1;
+            } else {
+                down += 1;
+            }
+            let d_omega = omega[k + w] - omega[k];
+            rows.push(Row {
+                x: [
+                    d_omega,
+                    pr.beam_inertia_kgm2 * d_omega + trapezoid(&pr.flex_torque_nm, k),
+                    angle,
+                    trapezoid(&sgn, k),
+                    w as f64 * dt,
+                ],
+                y: dt * e.log.torque[k..k + w].iter().sum::<f64>(),
+            });
+        }
+    }
+    if rows.len() < 20 {
+        return Err(CalibrateError::TooLittleMotion(rows.len()));
+    }
+    let both = up.min(down) as f64 >= BOTH_WAYS_FRACTION * (up + down) as f64;
+    Ok((rows, both))
+}
+
+/// Least squares of the balance; the offset column dropped (coefficient 0) unless `offset`.
+fn fit_balance(rows: &[Row], offset: bool) -> Result<[f64; 5], CalibrateError> {
+    let cols = if offset { 5 } else { 4 };
+    let mut n = Normal::new(cols);
+    for r in rows {
+        n.add(&r.x[..cols], r.y);
+    }
+    let f = n
+        .solve()
+        .ok_or(CalibrateError::TooLittleMotion(rows.len()))?;
+    Ok(core::array::from_fn(|i| {
+        f.coef.get(i).copied().unwrap_or(0.0)
+    }))
+}
+
+/// The balance refitted on [`BOOTSTRAP`] moving-block resamples of its rows (blocks of
+/// `block_s` at the first log's rate); resamples whose fit is singular are skipped.
+fn bootstrap(rows: &[Row], exps: &[Experiment], offset: bool, block_s: f64) -> Vec<[f64; 5]> {
+    let dt = exps[0].log.t[1] - exps[0].log.t[0];
+    let block = ((block_s / dt).round() as usize).clamp(1, rows.len());
+    let starts = rows.len() - block + 1;
+    let mut rng = StdRng::seed_from_u64(0xB007);
+    let mut out = vec![];
+    for _ in 0..BOOTSTRAP {
+        let mut sample = Vec::with_capacity(rows.len());
+        while sample.len() < rows.len() {
+            let s = rng.gen_range(0..starts);
+            sample.extend_from_slice(&rows[s..s + block]);
+        }
+        sample.truncate(rows.len());
+        if let Ok(c) = fit_balance(&sample, offset) {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// The first lag, in rows, at which the autocorrelation of `r` falls below 1/e (at most half
+/// its length).
+fn decorrelation_lag(r: &[f64]) -> usize {
+    let var: f64 = r.iter().map(|x| x * x).sum();
+    if var <= 0.0 {
+        return 1;
+    }
+    (1..r.len() / 2)
+        .find(|&lag| {
+            let c: f64 = r.iter().zip(&r[lag..]).map(|(a, b)| a * b).sum();
+            c / var < (-1.0f64).exp()
+        })
+        .unwrap_or(r.len() / 2)
+}
+
+/// The correlation of columns `a` and `b` over the resamples.
+fn correlation(samples: &[[f64; 6]], a: usize, b: usize) -> f64 {
+    let n = samples.len() as f64;
+    if n < 3.0 {
+        return 0.0;
+    }
+    let (ma, mb) = (
+        samples.iter().map(|s| s[a]).sum::<f64>() / n,
+        samples.iter().map(|s| s[b]).sum::<f64>() / n,
+    );
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for s in samples {
+        sab += (s[a] - ma) * (s[b] - mb);
+        saa += (s[a] - ma).powi(2);
+        sbb += (s[b] - mb).powi(2);
+    }
+    if saa > 0.0 && sbb > 0.0 {
+        sab / (saa * sbb).sqrt()
+    } else {
+        0.0
+    }
 }

@@ -291,14 +291,8 @@ fn the_torque_replay_stays_stable_at_500_hz_with_the_hub_at_rest_under_coulomb_f
     );
 }
 
-#[test]
-fn the_split_recovers_another_rigs_first_clamped_frequency_despite_a_torque_scale_error() {
-    // The README's "another rig" (docs/other-rig.sh): a steel strip on a geared hub, a 60 deg
-    // PD move in 1.0 s logged at 500 Hz with the torque read 5 % high and noise. The paper's
-    // steps put the first clamped frequency 4.5 % off; the split, fitting the beam on the
-    // strain with the hub prescribed, must get it within 1 % (and so EI/rho within 2 %).
-    use beam_tools::calibrate::Experiment;
-    use beam_tools::split::calibrate_split;
+/// The README's "another rig" (docs/other-rig.sh): a steel strip on a geared hub.
+fn other_rig() -> (BeamParams, BeamParams) {
     let (e, w, t) = (200e9, 0.03, 0.0012);
     let truth = BeamParams {
         length_m: 0.6,
@@ -324,15 +318,26 @@ fn the_split_recovers_another_rigs_first_clamped_frequency_despite_a_torque_scal
         viscous_nms: truth.viscous_nms * 1.2,
         ..truth
     };
+    (truth, guess)
+}
+
+/// A PD move of `deg` (centred on zero) in `time_s` on the other rig, logged at 500 Hz: the
+/// torque as its mean over each 2 ms, read 5 % high, plus +-5 mN m of deterministic noise.
+fn other_rig_log(
+    truth: BeamParams,
+    deg: f64,
+    time_s: f32,
+    seed: u64,
+) -> beam_tools::calibrate::Log {
     let run = simulate(
         &model(truth),
         Law::Pd(PdGains::BASELINE),
         &SimOptions {
             duration_s: 2.5,
             motion: host_tests::sim::Motion {
-                from_rad: (-30f64).to_radians() as f32,
-                to_rad: 30f64.to_radians() as f32,
-                time_s: 1.0,
+                from_rad: (-deg / 2.0).to_radians() as f32,
+                to_rad: (deg / 2.0).to_radians() as f32,
+                time_s,
                 ..Default::default()
             },
             ..Default::default()
@@ -342,41 +347,137 @@ fn the_split_recovers_another_rigs_first_clamped_frequency_despite_a_torque_scal
     let mut csv = Vec::new();
     write_trace_csv(&run, &mut csv).unwrap();
     let full = read_log(std::str::from_utf8(&csv).unwrap(), "rig.csv").unwrap();
-    // 500 Hz, torque read 5 % high with +-5 mN m of deterministic noise.
     let mut log = full.clone();
     let keep = |v: &Vec<f64>| v.iter().step_by(2).copied().collect::<Vec<_>>();
     log.t = keep(&full.t);
     log.theta = keep(&full.theta);
     log.root_strain = keep(&full.root_strain);
     log.mid_strain = None;
-    let mut x = 12345u64;
-    log.torque = keep(&full.torque)
-        .iter()
+    let mut x = seed;
+    log.torque = full
+        .torque
+        .chunks(2)
         .map(|u| {
             x = x
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
-            u * 1.05 + 0.01 * ((x >> 33) as f64 / (1u64 << 31) as f64 - 0.5)
+            let held = u.iter().sum::<f64>() / u.len() as f64;
+            held * 1.05 + 0.01 * ((x >> 33) as f64 / (1u64 << 31) as f64 - 0.5)
         })
+        .take(log.t.len())
         .collect();
+    log
+}
+
+#[test]
+fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
+    // The harder test: from one 60 deg log (500 Hz, torque noise, torque read 5 %
+    // high) the first clamped frequency within 1 %, EI within 5 %, intervals that cover the
+    // truth (on this log, for every noise draw tried; not on the same move backwards,
+    // below), and a held-out 90 deg move predicted (hub prescribed) within 15 % of its RMS
+    // root strain. The density is the level's one absolute fact (handbook steel); with the
+    // torque trusted instead, every mass and EI must come out scaled by the torque's error
+    // and nothing else (tests/physics.rs: that is the only thing one rig cannot tell).
+    use beam_tools::calibrate::Experiment;
+    use beam_tools::params_file::Sensors;
+    use beam_tools::replay::replay_report;
+    use beam_tools::split::{calibrate_split, Reference, SplitOptions};
+    let (truth, guess) = other_rig();
+    let log = other_rig_log(truth, 60.0, 1.0, 12345);
     let windows = find_windows(&log).unwrap();
     let exps = [Experiment { log, windows }];
-    let (found, report) = calibrate_split::<3>(&exps, &guess, 600).unwrap();
+    let options = SplitOptions {
+        reference: Reference::Density(truth.density_kg_m3),
+        fit_gauge_position: false,
+        evals: 600,
+    };
+    let (found, sensors, report) = calibrate_split::<3>(&exps, &guess, &options).unwrap();
     let (tm, fm) = (model(truth), model(found));
-    let f_err = (fm.clamped_hz[0] - tm.clamped_hz[0]).abs() / tm.clamped_hz[0];
-    eprintln!(
-        "clamped {:.4} vs {:.4} Hz; EI {:+.1} %, density {:+.1} %, Jm {:+.1} %; {report:?}",
-        fm.clamped_hz[0],
-        tm.clamped_hz[0],
-        100.0 * (found.ei_nm2 / truth.ei_nm2 - 1.0),
-        100.0 * (found.density_kg_m3 / truth.density_kg_m3 - 1.0),
-        100.0 * (found.jm_kgm2 / truth.jm_kgm2 - 1.0),
-    );
+    let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+    eprintln!("{found:?}\n{report:?}");
+    assert!(rel(fm.clamped_hz[0], tm.clamped_hz[0]) < 0.01);
+    assert!(rel(found.ei_nm2, truth.ei_nm2) < 0.05);
+    assert!(rel(sensors.torque_scale, 1.05) < 0.02, "{sensors:?}");
+    assert!(rel(sensors.gauge_scale, 1.0) < 0.02, "{sensors:?}");
+    // Each reported one-sigma interval, doubled, holds the truth.
+    let truth_of = |name: &str| match name {
+        "jm_kgm2" => truth.jm_kgm2,
+        "ei_nm2" => truth.ei_nm2,
+        "viscous_nms" => truth.viscous_nms,
+        "coulomb_nm" => truth.coulomb_nm,
+        "torque_scale" => 1.05,
+        "gauge_scale" => 1.0,
+        "damping_ratio" => truth.damping_ratio,
+        other => panic!("an interval for {other}, which this test does not know"),
+    };
+    assert!(report.uncertainty.len() >= 6, "{report:?}");
+    for u in &report.uncertainty {
+        let z = (u.value - truth_of(u.name)).abs() / u.std_err;
+        eprintln!(
+            "{}: {:.4e} +- {:.1e}, {z:.2} sigma from the truth",
+            u.name, u.value, u.std_err
+        );
+        assert!(z < 2.0, "{}: {z:.2} sigma", u.name);
+    }
+    // Other draws of the torque's noise: the intervals hold the truth in each.
+    for seed in [1u64, 2, 3, 4] {
+        let log = other_rig_log(truth, 60.0, 1.0, seed);
+        let windows = find_windows(&log).unwrap();
+        let exps = [Experiment { log, windows }];
+        let (_, _, report) = calibrate_split::<3>(&exps, &guess, &options).unwrap();
+        for u in &report.uncertainty {
+            let z = (u.value - truth_of(u.name)).abs() / u.std_err;
+            assert!(z < 2.0, "noise draw {seed}: {}: {z:.2} sigma", u.name);
+        }
+    }
+    // The held-out move.
+    let held = other_rig_log(truth, 90.0, 1.2, 777);
+    let w = find_windows(&held).unwrap();
+    let r = replay_report::<3>(&found, &sensors, &held, &w).unwrap();
+    eprintln!("held out: {r:?}");
+    assert!(r.strain_rel_err < 0.15, "{r:?}");
+    // The found sensors explain the torque: the open-loop replay stays within a degree,
+    // where the true beam read through a true-reading torque does not (the 5 % error,
+    // integrated twice).
+    let naive = replay_report::<3>(&truth, &Sensors::default(), &held, &w).unwrap();
     assert!(
-        f_err < 0.01,
-        "first clamped frequency {:.2} % off",
-        100.0 * f_err
+        r.hub_rms_err_deg < 1.0 && naive.hub_rms_err_deg > 2.0,
+        "{r:?} {naive:?}"
     );
-    let ratio = |p: &BeamParams| p.ei_nm2 / p.density_kg_m3;
-    assert!((ratio(&found) / ratio(&truth) - 1.0).abs() < 0.02);
+
+    // The same move backwards: the hub starts parked on an encoder count's edge and the PD
+    // chatters there, which the prescribed hub (smoothed over 15 ms against the counts)
+    // does not carry into the beam. The frequency, EI and the held-out prediction hold;
+    // the rigid body does not (README: torque scale 1.20 +- 0.05, Jm half the truth), so
+    // no interval is asked of it here.
+    let back = other_rig_log(truth, -60.0, 1.0, 12345);
+    let windows = find_windows(&back).unwrap();
+    let exps_back = [Experiment { log: back, windows }];
+    let (fb, sb, _) = calibrate_split::<3>(&exps_back, &guess, &options).unwrap();
+    assert!(
+        rel(model(fb).clamped_hz[0], tm.clamped_hz[0]) < 0.01,
+        "{fb:?}"
+    );
+    assert!(rel(fb.ei_nm2, truth.ei_nm2) < 0.05, "{fb:?}");
+    let r = replay_report::<3>(&fb, &sb, &held, &w).unwrap();
+    assert!(r.strain_rel_err < 0.15, "{r:?}");
+
+    // The torque trusted: the same beam up to the torque's 5 %.
+    let options = SplitOptions {
+        reference: Reference::Torque,
+        ..options
+    };
+    let (level, _, _) = calibrate_split::<3>(&exps, &guess, &options).unwrap();
+    for (a, b) in [
+        (level.density_kg_m3, truth.density_kg_m3),
+        (level.ei_nm2, truth.ei_nm2),
+    ] {
+        assert!(rel(a / b, 1.05) < 0.02, "{level:?}");
+    }
+    assert!(
+        rel(
+            level.ei_nm2 / level.density_kg_m3,
+            truth.ei_nm2 / truth.density_kg_m3
+        ) < 0.01
+    );
 }

@@ -307,3 +307,57 @@ fn near_rest_coulomb_friction_needs_the_stable_step_and_stops_the_hub_with_it() 
         "at 0.5 ms: {coarse} rad/s, at the stable step: {stable} rad/s"
     );
 }
+
+#[test]
+fn scaling_every_mass_stiffness_friction_and_the_torque_together_changes_no_motion() {
+    // Dimensional analysis: the beam's equation depends on EI/rho only, the strain on the
+    // curvature, and the hub's equation is linear in Jm, the beam's inertia, the friction and
+    // the torque. So a beam with Jm, density, EI, both friction terms (and the torque
+    // limit) times s, driven by the torque times s, moves exactly as the original: the
+    // reason calibration from one rig's logs cannot tell a torque scale error from the
+    // masses and stiffness without one absolute fact (beam_tools::split).
+    let base = BeamParams {
+        coulomb_nm: 0.03,
+        viscous_nms: 0.002,
+        ..BeamParams::aluminium()
+    };
+    let s = 1.37;
+    let scaled = BeamParams {
+        jm_kgm2: base.jm_kgm2 * s,
+        density_kg_m3: base.density_kg_m3 * s,
+        ei_nm2: base.ei_nm2 * s,
+        viscous_nms: base.viscous_nms * s,
+        coulomb_nm: base.coulomb_nm * s,
+        torque_limit_nm: base.torque_limit_nm * s,
+        ..base
+    };
+    let (a, b) = (plant::<3>(base), plant::<3>(scaled));
+    let torque = |t: f64| 0.3 * (7.0 * t).sin() + 0.1 * (31.0 * t).cos();
+    let (mut xa, mut xb) = (State::<3>::at_rest(0.1), State::<3>::at_rest(0.1));
+    let h = 1e-4;
+    let mut worst = (0.0f64, 0.0f64);
+    for k in 0..10_000 {
+        let u = torque(k as f64 * h);
+        xa = a.rk4_step(&xa, a.saturate(u), h);
+        xb = b.rk4_step(&xb, b.saturate(s * u), h);
+        let (oa, ob) = (a.outputs(&xa), b.outputs(&xb));
+        worst.0 = worst.0.max((xa.theta - xb.theta).abs());
+        worst.1 = worst.1.max((oa.root_strain - ob.root_strain).abs());
+    }
+    let moved = (xa.theta - 0.1).abs();
+    assert!(moved > 0.05, "the hub must move: {moved} rad");
+    assert!(worst.0 < 1e-12 && worst.1 < 1e-15, "{worst:?}");
+    // And a torque scale without the masses does change it (the test can fail).
+    let c = plant::<3>(BeamParams {
+        torque_limit_nm: scaled.torque_limit_nm,
+        ..base
+    });
+    let mut xc = State::<3>::at_rest(0.1);
+    let mut xa = State::<3>::at_rest(0.1);
+    for k in 0..10_000 {
+        let u = torque(k as f64 * h);
+        xa = a.rk4_step(&xa, a.saturate(u), h);
+        xc = c.rk4_step(&xc, c.saturate(s * u), h);
+    }
+    assert!((xa.theta - xc.theta).abs() > 1e-3);
+}

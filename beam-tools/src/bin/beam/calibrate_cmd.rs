@@ -6,7 +6,8 @@ use beam_tools::calibrate::{
     calibrate_many, find_windows, read_log_with, Columns, Experiment, LogFit, StepReport, Windows,
     DEFAULT_EVALS,
 };
-use beam_tools::split::calibrate_split;
+use beam_tools::params_file::Sensors;
+use beam_tools::split::{calibrate_split, Reference, SplitOptions};
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
 use serde_json::json;
@@ -36,6 +37,16 @@ pub struct CalibrateArgs {
     /// scale (see the README for how they compare).
     #[arg(long, value_parser = ["paper", "split"], default_value = "paper")]
     method: String,
+    /// With `--method split`: the beam's density is known (kg/m^3, e.g. a handbook value for
+    /// its material), and the torque's scale is fitted. Without it the torque is taken to
+    /// read true, and the masses, EI and friction carry its scale error: one rig's logs
+    /// cannot tell the two apart (see the README).
+    #[arg(long, value_name = "KG_M3")]
+    known_density: Option<f64>,
+    /// With `--method split`: fit the root gauge's position too (it trades almost exactly
+    /// against the gauge's scale; by default it is held at the starting parameters').
+    #[arg(long)]
+    fit_gauge_position: bool,
     /// COBYLA evaluations per local search.
     #[arg(long, default_value_t = DEFAULT_EVALS)]
     evals: usize,
@@ -53,6 +64,9 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     }
     if a.windows.as_ref().is_some_and(|w| w.len() != 3) {
         bail!("--windows takes three times: START,END,SETTLE_END");
+    }
+    if (a.known_density.is_some() || a.fit_gauge_position) && a.method != "split" {
+        bail!("--known-density and --fit-gauge-position apply to --method split");
     }
     let guess = *crate::beam(&a.plant)?.params();
     if a.windows.is_some() && a.logs.len() > 1 {
@@ -72,20 +86,35 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         .with_context(|| file.clone())?;
         exps.push(Experiment { log, windows });
     }
-    let (found, steps, per_log, split) = if a.method == "split" {
-        let (found, split) = with_modes!(a.plant.modes, calibrate_split(&exps, &guess, a.evals))?;
-        let per_log = with_modes!(a.plant.modes, log_fits(&found, &exps))?;
-        (found, vec![], per_log, Some(split))
+    let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
+    let (found, steps, per_log, split, spread) = if a.method == "split" {
+        let reference = match a.known_density {
+            Some(rho) => Reference::Density(rho),
+            None => Reference::Torque,
+        };
+        let options = SplitOptions {
+            reference,
+            fit_gauge_position: a.fit_gauge_position,
+            evals: a.evals,
+        };
+        let (found, sensors, split) =
+            with_modes!(a.plant.modes, calibrate_split(&exps, &guess, &options))?;
+        let per_log = with_modes!(a.plant.modes, log_fits(&found, &sensors, &exps))?;
+        let spread = Some((split.uncertainty.clone(), split.tradeoffs.clone()));
+        (found, vec![], per_log, Some(split), spread)
     } else {
         let (found, steps, per_log) =
             with_modes!(a.plant.modes, calibrate_many(&exps, &guess, a.evals))?;
-        (found, steps, per_log, None)
+        let spread = with_modes!(a.plant.modes, uncertainty_n(&found, &exps));
+        (found, steps, per_log, None, spread)
     };
-    let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
-    let spread = with_modes!(a.plant.modes, uncertainty_n(&found, &exps));
     if let Some(path) = &a.out {
         let comment = format!("identified by beam calibrate from {}", names.join(", "));
-        let text = beam_tools::params_file::render(&found, &comment);
+        let text = beam_tools::params_file::render_with(
+            &found,
+            split.as_ref().map(|s| &s.sensors),
+            &comment,
+        );
         beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
             .with_context(|| path.display().to_string())?;
     }
@@ -140,8 +169,28 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     }
     if let Some(s) = &split {
         println!(
-            "  split: beam (hub prescribed) strain RMS error {:.2} ue with gauge scale {:.4}; rigid body hub RMS error {:.2e} rad with torque scale {:.4}",
-            s.beam_rms_strain_err_ue, s.gauge_scale, s.rigid_rms_theta_err_rad, s.torque_scale
+            "  split, beam (hub prescribed): root strain RMS error {:.2} ue, gauge scale {:.4}",
+            s.beam_rms_strain_err_ue, s.sensors.gauge_scale
+        );
+        println!(
+            "  split, torque balance over {} moving samples: RMS error {:.2e} of {:.2e} N m; {}; {}",
+            s.balance_samples,
+            s.balance_rms_err_nm,
+            s.balance_rms_torque_nm,
+            if s.reference == "density" {
+                format!("density given, torque scale found {:.4}", s.sensors.torque_scale)
+            } else {
+                "torque taken to read true (scale 1): masses, EI and friction carry its scale error".into()
+            },
+            if s.offset_fitted {
+                format!("torque offset {:.2e} N m", s.sensors.torque_offset_nm)
+            } else {
+                "no torque offset (the logs move one way: it would be Coulomb friction)".into()
+            }
+        );
+        println!(
+            "  split, check: the logged torque replayed open loop through the sensors drifts {:.2e} rad RMS from the logged angle",
+            s.replay_rms_theta_err_rad
         );
     }
     match &spread {
@@ -150,10 +199,12 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                 .iter()
                 .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
                 .collect();
-            println!(
-                "  one-sigma (noise only, near the result): {}",
-                parts.join(", ")
-            );
+            let how = if split.is_some() {
+                "one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap)"
+            } else {
+                "one-sigma (noise only, near the result)"
+            };
+            println!("  {how}: {}", parts.join(", "));
             for t in trades {
                 println!(
                     "  warning: {} and {} trade against each other (correlation {:.3}); the logs do not tell them apart",
@@ -197,8 +248,8 @@ fn summary<const N: usize>(
         let m = ModalModel::<N>::try_build(&Beam::try_build(*p)?)?;
         Ok(
             json!({"jm_kgm2": p.jm_kgm2, "density_kg_m3": p.density_kg_m3, "ei_nm2": p.ei_nm2, "viscous_nms": p.viscous_nms,
-                  "coulomb_nm": p.coulomb_nm, "root_gauge_m": p.root_gauge_m, "mtt": m.mtt, "jeff": m.jeff,
-                  "pinned_hz": m.pinned_hz.to_vec()}),
+                  "coulomb_nm": p.coulomb_nm, "damping_ratio": p.damping_ratio, "root_gauge_m": p.root_gauge_m,
+                  "mtt": m.mtt, "jeff": m.jeff, "clamped_hz": m.clamped_hz.to_vec(), "pinned_hz": m.pinned_hz.to_vec()}),
         )
     };
     Ok((describe(found)?, describe(guess)?))
@@ -213,6 +264,22 @@ fn uncertainty_n<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<
     beam_tools::calibrate::uncertainty::<N>(p, exps)
 }
 
-fn log_fits<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> anyhow::Result<Vec<LogFit>> {
-    beam_tools::calibrate::log_fits::<N>(p, exps).context("the model broke down on a log")
+fn log_fits<const N: usize>(
+    p: &BeamParams,
+    sensors: &Sensors,
+    exps: &[Experiment],
+) -> anyhow::Result<Vec<LogFit>> {
+    let seen: Vec<Experiment> = exps
+        .iter()
+        .map(|e| Experiment {
+            log: beam_tools::replay::corrected(&e.log, sensors),
+            windows: e.windows,
+        })
+        .collect();
+    let mut fits =
+        beam_tools::calibrate::log_fits::<N>(p, &seen).context("the model broke down on a log")?;
+    // The strain error as the gauge reads it.
+    fits.iter_mut()
+        .for_each(|f| f.rms_strain_err_ue *= sensors.gauge_scale);
+    Ok(fits)
 }

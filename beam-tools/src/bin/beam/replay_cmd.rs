@@ -26,6 +26,10 @@ pub struct ReplayArgs {
     /// prescribed), .png or .svg.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
+    /// Write the model against the log, sample by sample, as CSV: t_s, theta_log_rad,
+    /// theta_model_rad (torque replay), root_strain_log, root_strain_model (hub prescribed).
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -53,6 +57,24 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
     }
     .with_context(|| file.clone())?;
     let report = with_modes!(a.plant.modes, report_n(&params, &sensors, &log, &windows))?;
+    if let Some(path) = &a.csv {
+        let (th, eps) = with_modes!(a.plant.modes, traces_n(&params, &sensors, &log))?;
+        beam_tools::files::write_atomically(path, |w| {
+            writeln!(
+                w,
+                "t_s,theta_log_rad,theta_model_rad,root_strain_log,root_strain_model"
+            )?;
+            for k in 0..th.len().min(eps.len()) {
+                writeln!(
+                    w,
+                    "{},{},{},{},{}",
+                    log.t[k], log.theta[k], th[k], log.root_strain[k], eps[k]
+                )?;
+            }
+            Ok(())
+        })
+        .with_context(|| path.display().to_string())?;
+    }
     if let Some(path) = &a.plot {
         let (th, eps) = with_modes!(a.plant.modes, traces_n(&params, &sensors, &log))?;
         let t: Vec<f64> = log.t.iter().map(|x| x - log.t[0]).collect();
