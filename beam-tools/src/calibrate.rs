@@ -136,6 +136,12 @@ pub enum CalibrateError {
     /// The hub hardly moves in the windows: no torque balance to fit.
     #[error("the hub moves in only {0} samples of the windows; the torque balance needs 20")]
     TooLittleMotion(usize),
+    /// A torque offset was asked for, but the logs move one way.
+    #[error(
+        "a torque offset needs moves both ways (each at least a fifth of the time moving): \
+         moving one way it is Coulomb friction"
+    )]
+    OneWay,
     /// The torque balance came out unphysical: the logs do not determine the rigid body.
     #[error(
         "the torque balance gives Jm {jm:.3e} kg m^2, density {density:.4e} kg/m^3 and torque \

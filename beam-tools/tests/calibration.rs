@@ -389,6 +389,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     let options = SplitOptions {
         reference: Reference::Density(truth.density_kg_m3),
         fit_gauge_position: false,
+        fit_offset: false,
         evals: 600,
     };
     let (found, sensors, report) = calibrate_split::<3>(&exps, &guess, &options).unwrap();
@@ -461,6 +462,38 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     assert!(rel(fb.ei_nm2, truth.ei_nm2) < 0.05, "{fb:?}");
     let r = replay_report::<3>(&fb, &sb, &held, &w).unwrap();
     assert!(r.strain_rel_err < 0.15, "{r:?}");
+
+    // A torque offset of 10 mN m on both logs: fitted over the moves both ways it comes
+    // back with Coulomb friction beside it; asked of one way, it is refused.
+    let with_offset = |e: &Experiment| {
+        let mut e = e.clone();
+        e.log.torque.iter_mut().for_each(|u| *u += 0.01);
+        e
+    };
+    let both = [with_offset(&exps[0]), with_offset(&exps_back[0])];
+    let options_offset = SplitOptions {
+        fit_offset: true,
+        ..options
+    };
+    let (fo, so, ro) = calibrate_split::<3>(&both, &guess, &options_offset).unwrap();
+    let sd = |name: &str| {
+        ro.uncertainty
+            .iter()
+            .find(|u| u.name == name)
+            .map(|u| u.std_err)
+            .unwrap()
+    };
+    eprintln!(
+        "offset {so:?}, Coulomb {} +- {}",
+        fo.coulomb_nm,
+        sd("coulomb_nm")
+    );
+    assert!((so.torque_offset_nm - 0.01).abs() < 2.0 * sd("torque_offset_nm"));
+    assert!((fo.coulomb_nm - truth.coulomb_nm).abs() < 2.0 * sd("coulomb_nm"));
+    assert!(matches!(
+        calibrate_split::<3>(&both[..1], &guess, &options_offset),
+        Err(beam_tools::calibrate::CalibrateError::OneWay)
+    ));
 
     // The torque trusted: the same beam up to the torque's 5 %.
     let options = SplitOptions {

@@ -283,7 +283,7 @@ fn optimize_writes_a_valid_table_row() {
 
 #[test]
 fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
-    let cases: [(&[&str], &str); 20] = [
+    let cases: [(&[&str], &str); 21] = [
         (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
         (&["simulate", "--time", "fast"], "shortest"),
         (
@@ -341,6 +341,10 @@ fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
         (&["sweep", "--shortest"], "--moves"),
         (&["calibrate", "x.csv", "--columns", "t=x:hours"], "hours"),
         (&["calibrate", "x.csv", "--windows", "0.1,0.2"], "--windows"),
+        (
+            &["calibrate", "x.csv", "--known-density", "7850"],
+            "--method split",
+        ),
         (&["replay", "/nonexistent/log.csv"], "/nonexistent/log.csv"),
         (&["replay", "x.csv", "--plot", "out.gif"], ".png or .svg"),
     ];
@@ -823,4 +827,39 @@ fn calibrate_fits_several_logs_at_once_and_reports_each() {
     let out = beam(&["calibrate", sa, sb, "--windows", "0,0.3,0.6"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("one log"));
+
+    // The split: with the density known the torque scale is measured, written to the
+    // parameter file's [sensors] and applied by replay.
+    let found = dir.join("found.toml");
+    let fo = found.to_str().unwrap();
+    let v = json(&beam(&[
+        "calibrate",
+        sa,
+        sb,
+        "--method",
+        "split",
+        "--known-density",
+        "2700",
+        "--evals",
+        "30",
+        "--out",
+        fo,
+        "--json",
+    ]));
+    let split = &v["split"];
+    assert_eq!(split["reference"], "density");
+    assert_eq!(split["offset_fitted"], false);
+    let scale = split["sensors"]["torque_scale"].as_f64().unwrap();
+    // The simulated drive's torque reads true.
+    assert!((scale - 1.0).abs() < 0.1, "{split}");
+    let text = std::fs::read_to_string(&found).unwrap();
+    assert!(
+        text.contains("[sensors]") && text.contains("torque_scale"),
+        "{text}"
+    );
+    let r = json(&beam(&["replay", sa, "--params", fo, "--json"]));
+    assert!(r["strain_rel_err"].as_f64().unwrap() < 0.15, "{r}");
+    let out = beam(&["calibrate", sa, "--method", "split", "--known-density", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("known density"));
 }

@@ -47,6 +47,10 @@ pub struct CalibrateArgs {
     /// against the gauge's scale; by default it is held at the starting parameters').
     #[arg(long)]
     fit_gauge_position: bool,
+    /// With `--method split`: fit an offset of the logged torque (a bias, the same both
+    /// ways, unlike Coulomb friction). The logs must move both ways.
+    #[arg(long)]
+    torque_offset: bool,
     /// COBYLA evaluations per local search.
     #[arg(long, default_value_t = DEFAULT_EVALS)]
     evals: usize,
@@ -65,8 +69,9 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.windows.as_ref().is_some_and(|w| w.len() != 3) {
         bail!("--windows takes three times: START,END,SETTLE_END");
     }
-    if (a.known_density.is_some() || a.fit_gauge_position) && a.method != "split" {
-        bail!("--known-density and --fit-gauge-position apply to --method split");
+    if (a.known_density.is_some() || a.fit_gauge_position || a.torque_offset) && a.method != "split"
+    {
+        bail!("--known-density, --fit-gauge-position and --torque-offset apply to --method split");
     }
     let guess = *crate::beam(&a.plant)?.params();
     if a.windows.is_some() && a.logs.len() > 1 {
@@ -95,6 +100,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         let options = SplitOptions {
             reference,
             fit_gauge_position: a.fit_gauge_position,
+            fit_offset: a.torque_offset,
             evals: a.evals,
         };
         let (found, sensors, split) =
@@ -185,7 +191,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             if s.offset_fitted {
                 format!("torque offset {:.2e} N m", s.sensors.torque_offset_nm)
             } else {
-                "no torque offset (the logs move one way: it would be Coulomb friction)".into()
+                "no torque offset fitted".into()
             }
         );
         println!(
