@@ -110,6 +110,8 @@ impl HubMotion {
 pub struct Prescribed {
     /// Root strain the model implies (gauge scale 1).
     pub root_strain: Vec<f64>,
+    /// Mid-span strain the model implies.
+    pub mid_strain: Vec<f64>,
     /// The part of the torque the beam (and tip) take from the hub that their flexing
     /// adds to their rigid inertia's `(Mtt - Jm) alpha`: `q'Sq alpha + h'q'' + 2 omega
     /// q'S q'`, N m. With the ratio EI/rho held it scales with the density (no tip mass).
@@ -140,11 +142,13 @@ pub fn prescribed<const N: usize>(
     let dt = log.t[1] - log.t[0];
     let (omega, alpha) = (&hub.omega, &hub.alpha);
     let mut torque = Vec::with_capacity(log.t.len());
+    let mut mid = Vec::with_capacity(log.t.len());
     let (mut q, mut qd) = ([0.0f64; N], [0.0f64; N]);
     let mut eps = Vec::with_capacity(log.t.len());
     let h = dt / 4.0;
     for k in 0..log.t.len() {
         eps.push(model_core::linalg::dot(&plant.model.root_strain_coef, &q));
+        mid.push(model_core::linalg::dot(&plant.model.mid_strain_coef, &q));
         let (w, a) = (omega[k], alpha[k]);
         let qdd = plant.flex_acceleration(&q, &qd, w, a);
         let sq = model_core::linalg::mat_vec(&model.s, &q);
@@ -178,6 +182,7 @@ pub fn prescribed<const N: usize>(
     }
     Some(Prescribed {
         root_strain: eps,
+        mid_strain: mid,
         flex_torque_nm: torque,
         beam_inertia_kgm2: model.mtt - params.jm_kgm2,
     })
@@ -278,21 +283,138 @@ pub fn corrected(log: &Log, sensors: &Sensors) -> Log {
     log
 }
 
-/// The hub angle of the torque replay (up to the end of the log) and the root strain of the
-/// beam on the prescribed hub, both as the log's instruments would read them through
-/// `sensors`; `None` if the model breaks down.
-pub fn traces<const N: usize>(
-    params: &BeamParams,
-    sensors: &Sensors,
-    log: &Log,
-) -> Option<(Vec<f64>, Vec<f64>)> {
-    let t_end = log.t[log.t.len() - 1] - log.t[0];
+/// The model against a log, sample by sample: what `beam replay --csv` writes and the
+/// calibration figures draw. Model strains are as the log's gauge would read them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Traces {
+    /// Time from the log's first sample, s.
+    pub t: Vec<f64>,
+    /// Logged hub angle, rad.
+    pub theta_log: Vec<f64>,
+    /// Hub angle of the torque replayed open loop through the sensors, rad.
+    pub theta_model: Vec<f64>,
+    /// Hub rate from the logged angle (the prescribed hub's), rad/s.
+    pub omega_log: Vec<f64>,
+    /// Hub rate of the torque replay (central differences), rad/s.
+    pub omega_model: Vec<f64>,
+    /// Logged root strain.
+    pub root_log: Vec<f64>,
+    /// Root strain of the beam on the prescribed hub.
+    pub root_model: Vec<f64>,
+    /// Logged mid-span strain and the model's (hub prescribed), where the log has it.
+    pub mid: Option<(Vec<f64>, Vec<f64>)>,
+}
+
+/// The model of `params` against the whole of `log`, read through `sensors`; `None` if the
+/// model breaks down.
+pub fn traces<const N: usize>(params: &BeamParams, sensors: &Sensors, log: &Log) -> Option<Traces> {
+    let t: Vec<f64> = log.t.iter().map(|x| x - log.t[0]).collect();
+    let t_end = t[t.len() - 1];
     let (th, _) = replay_torque::<N>(params, &corrected(log, sensors), t_end)?;
-    let eps = replay_prescribed::<N>(params, log)?
-        .into_iter()
-        .map(|e| e * sensors.gauge_scale)
+    let n = th.len().min(t.len());
+    let hub = HubMotion::of(log, hub_window_s(params));
+    let pr = prescribed::<N>(params, log, &hub)?;
+    let dt = t[1] - t[0];
+    let omega_model = (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
+            if b > a {
+                (th[b] - th[a]) / ((b - a) as f64 * dt)
+            } else {
+                0.0
+            }
+        })
         .collect();
-    Some((th, eps))
+    let g = sensors.gauge_scale;
+    Some(Traces {
+        t: t[..n].to_vec(),
+        theta_log: log.theta[..n].to_vec(),
+        theta_model: th,
+        omega_log: hub.omega[..n].to_vec(),
+        omega_model,
+        root_log: log.root_strain[..n].to_vec(),
+        root_model: pr.root_strain[..n].iter().map(|e| e * g).collect(),
+        mid: log
+            .mid_strain
+            .as_ref()
+            .map(|m| (m[..n].to_vec(), pr.mid_strain[..n].to_vec())),
+    })
+}
+
+impl Traces {
+    /// As CSV: `t_s, theta_log_rad, theta_model_rad, omega_log_rad_s, omega_model_rad_s,
+    /// root_strain_log, root_strain_model[, mid_strain_log, mid_strain_model]`.
+    pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        write!(
+            w,
+            "t_s,theta_log_rad,theta_model_rad,omega_log_rad_s,omega_model_rad_s,root_strain_log,root_strain_model"
+        )?;
+        if self.mid.is_some() {
+            write!(w, ",mid_strain_log,mid_strain_model")?;
+        }
+        writeln!(w)?;
+        for k in 0..self.t.len() {
+            write!(
+                w,
+                "{},{},{},{},{},{},{}",
+                self.t[k],
+                self.theta_log[k],
+                self.theta_model[k],
+                self.omega_log[k],
+                self.omega_model[k],
+                self.root_log[k],
+                self.root_model[k]
+            )?;
+            if let Some((l, m)) = &self.mid {
+                write!(w, ",{},{}", l[k], m[k])?;
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    }
+
+    /// The paper's calibration figures: hub angle, hub rate, root strain and (where logged)
+    /// mid-span strain, measured against the model, to `path` (.png or .svg).
+    pub fn plot(&self, title: &str, path: &std::path::Path) -> Result<(), crate::plot::PlotError> {
+        let pts = |v: &[f64], scale: f64| -> Vec<(f64, f64)> {
+            self.t.iter().zip(v).map(|(t, y)| (*t, y * scale)).collect()
+        };
+        let deg = 180.0 / core::f64::consts::PI;
+        let mut panels = vec![
+            (
+                "Hub angle (model: logged torque, open loop)",
+                "deg",
+                vec![
+                    ("log", pts(&self.theta_log, deg)),
+                    ("model", pts(&self.theta_model, deg)),
+                ],
+            ),
+            (
+                "Hub rate (log: quadratic fit to the angle; model: torque replay)",
+                "deg/s",
+                vec![
+                    ("log", pts(&self.omega_log, deg)),
+                    ("model", pts(&self.omega_model, deg)),
+                ],
+            ),
+            (
+                "Root strain (model: logged hub angle)",
+                "microstrain",
+                vec![
+                    ("log", pts(&self.root_log, 1e6)),
+                    ("model", pts(&self.root_model, 1e6)),
+                ],
+            ),
+        ];
+        if let Some((l, m)) = &self.mid {
+            panels.push((
+                "Mid-span strain (model: logged hub angle)",
+                "microstrain",
+                vec![("log", pts(l, 1e6)), ("model", pts(m, 1e6))],
+            ));
+        }
+        crate::plot::plot_panels(title, panels, path)
+    }
 }
 
 /// The model of `params`, read through the rig's `sensors`, against `log` over `windows`.

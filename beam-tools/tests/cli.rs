@@ -844,8 +844,18 @@ fn calibrate_fits_several_logs_at_once_and_reports_each() {
         "30",
         "--out",
         fo,
+        "--plot",
+        dir.join("cal.svg").to_str().unwrap(),
         "--json",
     ]));
+    // One figure per log, each with the model against the log.
+    for f in ["cal.svg", "cal-2.svg"] {
+        let svg = std::fs::read_to_string(dir.join(f)).unwrap();
+        assert!(
+            svg.contains("Hub rate") && svg.contains("Root strain"),
+            "{f}"
+        );
+    }
     let split = &v["split"];
     assert_eq!(split["reference"], "density");
     assert_eq!(split["offset_fitted"], false);
@@ -857,8 +867,25 @@ fn calibrate_fits_several_logs_at_once_and_reports_each() {
         text.contains("[sensors]") && text.contains("torque_scale"),
         "{text}"
     );
-    let r = json(&beam(&["replay", sa, "--params", fo, "--json"]));
+    let traces = dir.join("traces.csv");
+    let r = json(&beam(&[
+        "replay",
+        sa,
+        "--params",
+        fo,
+        "--csv",
+        traces.to_str().unwrap(),
+        "--json",
+    ]));
     assert!(r["strain_rel_err"].as_f64().unwrap() < 0.15, "{r}");
+    // The traces: a header naming log and model, and a row per logged sample (mid-span
+    // strain included: the project's own logs carry it).
+    let text = std::fs::read_to_string(&traces).unwrap();
+    let logged = std::fs::read_to_string(&a).unwrap().lines().count();
+    assert_eq!(text.lines().count(), logged, "one row per sample");
+    assert!(text.starts_with(
+        "t_s,theta_log_rad,theta_model_rad,omega_log_rad_s,omega_model_rad_s,root_strain_log,root_strain_model,mid_strain_log,mid_strain_model\n"
+    ));
     let out = beam(&["calibrate", sa, "--method", "split", "--known-density", "0"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("known density"));

@@ -54,6 +54,11 @@ pub struct CalibrateArgs {
     /// COBYLA evaluations per local search.
     #[arg(long, default_value_t = DEFAULT_EVALS)]
     evals: usize,
+    /// Draw the paper's calibration figures for each log: hub angle, hub rate, root strain
+    /// and (where logged) mid-span strain, measured against the identified model (.png or
+    /// .svg; with several logs, `NAME-2.png` and so on for the second and later).
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
     /// Write the identified parameters here (TOML; `--params FILE` of the other commands).
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
@@ -72,6 +77,9 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     if (a.known_density.is_some() || a.fit_gauge_position || a.torque_offset) && a.method != "split"
     {
         bail!("--known-density, --fit-gauge-position and --torque-offset apply to --method split");
+    }
+    if let Some(path) = &a.plot {
+        beam_tools::plot::check_extension(path)?;
     }
     let guess = *crate::beam(&a.plant)?.params();
     if a.windows.is_some() && a.logs.len() > 1 {
@@ -124,6 +132,15 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
             .with_context(|| path.display().to_string())?;
     }
+    if let Some(path) = &a.plot {
+        let sensors = split.as_ref().map(|s| s.sensors).unwrap_or_default();
+        for (i, (e, name)) in exps.iter().zip(&names).enumerate() {
+            let target = numbered(path, i);
+            let traces = with_modes!(a.plant.modes, traces_n(&found, &sensors, &e.log))?;
+            let title = format!("identified model against {name}");
+            beam_tools::files::plot_atomically(&target, |tmp| traces.plot(&title, tmp))?;
+        }
+    }
     let (fm, gm) = with_modes!(a.plant.modes, summary(&found, &guess))?;
     if a.json {
         let steps: Vec<_> = steps
@@ -154,9 +171,9 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "calibrated from {} log(s), guess: {} preset",
+        "calibrated from {} log(s), guess: {}",
         exps.len(),
-        a.plant.preset.name()
+        a.plant.source()
     );
     for ((e, f), name) in exps.iter().zip(&per_log).zip(&names) {
         let w = &e.windows;
@@ -225,6 +242,12 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.out {
         println!("  written to {} (use with --params)", path.display());
     }
+    if let Some(path) = &a.plot {
+        let all: Vec<String> = (0..exps.len())
+            .map(|i| numbered(path, i).display().to_string())
+            .collect();
+        println!("  figures: {}", all.join(", "));
+    }
     Ok(())
 }
 
@@ -288,4 +311,24 @@ fn log_fits<const N: usize>(
     fits.iter_mut()
         .for_each(|f| f.rms_strain_err_ue *= sensors.gauge_scale);
     Ok(fits)
+}
+
+/// `path` for the first log, `stem-N.ext` for the N-th (from 2).
+fn numbered(path: &std::path::Path, i: usize) -> PathBuf {
+    if i == 0 {
+        return path.to_path_buf();
+    }
+    let stem = path
+        .file_stem()
+        .map_or("plot".into(), |s| s.to_string_lossy());
+    let ext = path.extension().map_or("".into(), |e| e.to_string_lossy());
+    path.with_file_name(format!("{stem}-{}.{ext}", i + 1))
+}
+
+fn traces_n<const N: usize>(
+    p: &BeamParams,
+    sensors: &Sensors,
+    log: &beam_tools::calibrate::Log,
+) -> anyhow::Result<beam_tools::replay::Traces> {
+    beam_tools::replay::traces::<N>(p, sensors, log).context("the model broke down on a log")
 }

@@ -144,6 +144,16 @@ struct PlantArgs {
     tip_mass: Option<f64>,
 }
 
+impl PlantArgs {
+    /// What the parameters are: the file's path, or the preset's name.
+    fn source(&self) -> String {
+        match &self.params {
+            Some(path) => path.display().to_string(),
+            None => format!("{} preset", self.preset.name()),
+        }
+    }
+}
+
 #[derive(Args)]
 struct ModelArgs {
     #[command(flatten)]

@@ -5,7 +5,7 @@ use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::calibrate::{find_windows, read_log_with, Columns, Windows};
 use beam_tools::params_file::Sensors;
-use beam_tools::replay::{replay_report, traces};
+use beam_tools::replay::{replay_report, traces, Traces};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -22,12 +22,13 @@ pub struct ReplayArgs {
     /// The windows, s from the log's first sample [default: found in the log].
     #[arg(long, value_name = "START,END,SETTLE_END", value_delimiter = ',')]
     windows: Option<Vec<f64>>,
-    /// Draw the model against the log: hub angle (torque replay) and root strain (hub
-    /// prescribed), .png or .svg.
+    /// Draw the model against the log: hub angle and rate (torque replay), root strain and,
+    /// where logged, mid-span strain (hub prescribed), .png or .svg.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
-    /// Write the model against the log, sample by sample, as CSV: t_s, theta_log_rad,
-    /// theta_model_rad (torque replay), root_strain_log, root_strain_model (hub prescribed).
+    /// Write the model against the log, sample by sample, as CSV: time, hub angle and rate
+    /// (log, torque replay), root strain and, where logged, mid-span strain (log, hub
+    /// prescribed).
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
     /// Print one JSON object.
@@ -57,50 +58,16 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
     }
     .with_context(|| file.clone())?;
     let report = with_modes!(a.plant.modes, report_n(&params, &sensors, &log, &windows))?;
-    if let Some(path) = &a.csv {
-        let (th, eps) = with_modes!(a.plant.modes, traces_n(&params, &sensors, &log))?;
-        beam_tools::files::write_atomically(path, |w| {
-            writeln!(
-                w,
-                "t_s,theta_log_rad,theta_model_rad,root_strain_log,root_strain_model"
-            )?;
-            for k in 0..th.len().min(eps.len()) {
-                writeln!(
-                    w,
-                    "{},{},{},{},{}",
-                    log.t[k], log.theta[k], th[k], log.root_strain[k], eps[k]
-                )?;
-            }
-            Ok(())
-        })
-        .with_context(|| path.display().to_string())?;
-    }
-    if let Some(path) = &a.plot {
-        let (th, eps) = with_modes!(a.plant.modes, traces_n(&params, &sensors, &log))?;
-        let t: Vec<f64> = log.t.iter().map(|x| x - log.t[0]).collect();
-        let pts = |v: &[f64], scale: f64| -> Vec<(f64, f64)> {
-            t.iter().zip(v).map(|(t, y)| (*t, y * scale)).collect()
-        };
-        let deg = 180.0 / std::f64::consts::PI;
-        let panels = vec![
-            (
-                "Hub angle (model: logged torque, open loop)",
-                "deg",
-                vec![("log", pts(&log.theta, deg)), ("model", pts(&th, deg))],
-            ),
-            (
-                "Root strain (model: logged hub angle)",
-                "microstrain",
-                vec![
-                    ("log", pts(&log.root_strain, 1e6)),
-                    ("model", pts(&eps, 1e6)),
-                ],
-            ),
-        ];
-        let title = format!("{} against {}", a.plant.preset.name(), file);
-        beam_tools::files::plot_atomically(path, |tmp| {
-            beam_tools::plot::plot_panels(&title, panels, tmp)
-        })?;
+    if a.csv.is_some() || a.plot.is_some() {
+        let traces = with_modes!(a.plant.modes, traces_n(&params, &sensors, &log))?;
+        if let Some(path) = &a.csv {
+            beam_tools::files::write_atomically(path, |w| traces.write_csv(w))
+                .with_context(|| path.display().to_string())?;
+        }
+        if let Some(path) = &a.plot {
+            let title = format!("{} against {}", a.plant.source(), file);
+            beam_tools::files::plot_atomically(path, |tmp| traces.plot(&title, tmp))?;
+        }
     }
     if a.json {
         let mut v = serde_json::to_value(&report)?;
@@ -145,6 +112,6 @@ fn traces_n<const N: usize>(
     params: &model_core::BeamParams,
     sensors: &Sensors,
     log: &beam_tools::calibrate::Log,
-) -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
+) -> anyhow::Result<Traces> {
     traces::<N>(params, sensors, log).context("the model broke down")
 }
