@@ -531,7 +531,7 @@ fn report(
     println!(
         "{} on {} with {} mode(s), payload {} kg: {} closed-loop runs in {seconds:.1} s",
         spec.kind.name(),
-        a.plant.preset.name(),
+        a.plant.source(),
         a.plant.modes,
         a.plant.tip_mass.unwrap_or(0.0),
         o.evaluations
