@@ -133,6 +133,12 @@ pub enum CalibrateError {
     /// A known density that is not a density.
     #[error("the known density {0} kg/m^3 must be finite and > 0")]
     Reference(f64),
+    /// The tip masses are to fix the level, but every log has the same.
+    #[error(
+        "the tip masses fix the level only from logs recorded with two different masses (the \
+         same move with and without a weighed mass added): one mass hardly moves the strain"
+    )]
+    OneTipMass,
     /// The hub hardly moves in the windows: no torque balance to fit.
     #[error("the hub moves in only {0} samples of the windows; the torque balance needs 20")]
     TooLittleMotion(usize),
@@ -581,6 +587,28 @@ pub struct Experiment {
     pub log: Log,
     /// Its windows.
     pub windows: Windows,
+    /// The tip mass it was logged with, kg, when not the parameters' (a weighed mass added
+    /// for this log: see [`crate::split::Reference::TipMass`]).
+    pub tip_mass_kg: Option<f64>,
+}
+
+impl Experiment {
+    /// A log and its windows, logged with the parameters' tip mass.
+    pub fn new(log: Log, windows: Windows) -> Self {
+        Self {
+            log,
+            windows,
+            tip_mass_kg: None,
+        }
+    }
+
+    /// `p` as this log was recorded: with its tip mass.
+    pub fn params(&self, p: &BeamParams) -> BeamParams {
+        BeamParams {
+            tip_mass_kg: self.tip_mass_kg.unwrap_or(p.tip_mass_kg),
+            ..*p
+        }
+    }
 }
 
 /// Sums of squared hub-angle error (rad^2) and root-strain error (ue^2) over the step's part
@@ -592,7 +620,7 @@ fn squared_errors<const N: usize>(
 ) -> Option<(f64, f64, usize)> {
     let (a, b) = part.window(&e.windows);
     let log = &e.log;
-    let (th, eps) = replay::<N>(params, log, b)?;
+    let (th, eps) = replay::<N>(&e.params(params), log, b)?;
     let t0 = log.t[0];
     let (mut se, mut ss, mut n) = (0.0, 0.0, 0usize);
     for k in 0..th.len() {
@@ -797,7 +825,7 @@ pub fn uncertainty<const N: usize>(
         let mut r = vec![];
         for e in exps {
             let (a, b) = Part::All.window(&e.windows);
-            let (th, eps) = replay::<N>(q, &e.log, b)?;
+            let (th, eps) = replay::<N>(&e.params(q), &e.log, b)?;
             let t0 = e.log.t[0];
             for k in 0..th.len() {
                 let t = e.log.t[k] - t0;
@@ -886,10 +914,7 @@ pub fn calibrate<const N: usize>(
     evals: usize,
     windows: &Windows,
 ) -> Result<(BeamParams, Vec<StepReport>), CalibrateError> {
-    let exps = [Experiment {
-        log: log.clone(),
-        windows: *windows,
-    }];
+    let exps = [Experiment::new(log.clone(), *windows)];
     calibrate_many::<N>(&exps, guess, evals).map(|(p, steps, _)| (p, steps))
 }
 

@@ -889,4 +889,71 @@ fn calibrate_fits_several_logs_at_once_and_reports_each() {
     let out = beam(&["calibrate", sa, "--method", "split", "--known-density", "0"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("known density"));
+
+    // The mass-change method: the second move logged again with 50 g at the tip. The
+    // masses, one per log, fix the level: the density is found (the aluminium beam's,
+    // 2700 kg/m^3) and the drive's true torque measured.
+    let c = dir.join("c.csv");
+    let args = [
+        "simulate",
+        "--controller",
+        "pd",
+        "--duration",
+        "1.2",
+        "--payload",
+        "0.05",
+        "--move",
+        "30",
+        "--from",
+        "-15",
+        "--time",
+        "0.2",
+        "--csv",
+        c.to_str().unwrap(),
+    ];
+    assert!(beam(&args).status.success());
+    let sc = c.to_str().unwrap();
+    let v = json(&beam(&[
+        "calibrate",
+        sb,
+        sc,
+        "--method",
+        "split",
+        "--tip-masses",
+        "0,0.05",
+        "--evals",
+        "30",
+        "--json",
+    ]));
+    let split = &v["split"];
+    assert_eq!(split["reference"], "tip_mass", "{split}");
+    let density = v["identified"]["density_kg_m3"].as_f64().unwrap();
+    let scale = split["sensors"]["torque_scale"].as_f64().unwrap();
+    eprintln!("mass change: density {density}, torque scale {scale}");
+    assert!((density / 2700.0 - 1.0).abs() < 0.05, "{v}");
+    assert!((scale - 1.0).abs() < 0.05, "{split}");
+    for (masses, says) in [
+        ("0,0.05,0.1", "3 masses for 2 logs"),
+        ("0,-0.05", "finite and >= 0"),
+    ] {
+        let out = beam(&["calibrate", sb, sc, "--tip-masses", masses]);
+        assert_eq!(out.status.code(), Some(2), "{masses}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(says),
+            "{masses}"
+        );
+    }
+    // One mass for every log: nothing to fix the level with.
+    let out = beam(&[
+        "calibrate",
+        sc,
+        "--method",
+        "split",
+        "--tip-masses",
+        "0.05",
+        "--evals",
+        "30",
+    ]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("torque taken to read true"));
 }

@@ -43,6 +43,18 @@ pub struct CalibrateArgs {
     /// cannot tell the two apart (see the README).
     #[arg(long, value_name = "KG_M3")]
     known_density: Option<f64>,
+    /// The weighed tip mass each log was recorded with, kg, one per log in the logs' order
+    /// [default: every log with the starting parameters' (--tip-mass)]. With `--method
+    /// split` and two different masses (the same move logged with and without a known
+    /// added mass), the masses fix the level instead of the torque: the beam's frequency
+    /// shift with the added mass gives its density, and the torque's scale is measured.
+    #[arg(
+        long,
+        value_name = "KG,...",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    tip_masses: Option<Vec<f64>>,
     /// With `--method split`: fit the root gauge's position too (it trades almost exactly
     /// against the gauge's scale; by default it is held at the starting parameters').
     #[arg(long)]
@@ -82,12 +94,28 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         beam_tools::plot::check_extension(path)?;
     }
     let guess = *crate::beam(&a.plant)?.params();
+    let tip_masses: Vec<Option<f64>> = match a.tip_masses.as_deref() {
+        None => vec![None; a.logs.len()],
+        Some(m) if m.iter().any(|m| !(m.is_finite() && *m >= 0.0)) => {
+            bail!("--tip-masses: each mass must be finite and >= 0 kg")
+        }
+        Some(m) if m.len() == a.logs.len() => m.iter().map(|&m| Some(m)).collect(),
+        Some(m) => bail!(
+            "--tip-masses gives {} masses for {} logs: give one per log",
+            m.len(),
+            a.logs.len()
+        ),
+    };
+    let masses_differ = tip_masses
+        .iter()
+        .map(|m| m.unwrap_or(guess.tip_mass_kg))
+        .any(|m| m != tip_masses[0].unwrap_or(guess.tip_mass_kg));
     if a.windows.is_some() && a.logs.len() > 1 {
         bail!("--windows applies to one log; with several, each log's windows are found in it");
     }
     let columns = a.columns.clone().unwrap_or_default();
     let mut exps = vec![];
-    for path in &a.logs {
+    for (path, &tip_mass_kg) in a.logs.iter().zip(&tip_masses) {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).with_context(|| file.clone())?;
         let log = read_log_with(&text, &file, &columns)?;
@@ -97,12 +125,16 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             None => find_windows(&log),
         }
         .with_context(|| file.clone())?;
-        exps.push(Experiment { log, windows });
+        exps.push(Experiment {
+            tip_mass_kg,
+            ..Experiment::new(log, windows)
+        });
     }
     let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
     let (found, steps, per_log, split, spread) = if a.method == "split" {
         let reference = match a.known_density {
             Some(rho) => Reference::Density(rho),
+            None if masses_differ => Reference::TipMass,
             None => Reference::Torque,
         };
         let options = SplitOptions {
@@ -136,7 +168,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         let sensors = split.as_ref().map(|s| s.sensors).unwrap_or_default();
         for (i, (e, name)) in exps.iter().zip(&names).enumerate() {
             let target = numbered(path, i);
-            let traces = with_modes!(a.plant.modes, traces_n(&found, &sensors, &e.log))?;
+            let traces = with_modes!(a.plant.modes, traces_n(&e.params(&found), &sensors, &e.log))?;
             let title = format!("identified model against {name}");
             beam_tools::files::plot_atomically(&target, |tmp| traces.plot(&title, tmp))?;
         }
@@ -202,6 +234,11 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             s.balance_rms_torque_nm,
             if s.reference == "density" {
                 format!("density given, torque scale found {:.4}", s.sensors.torque_scale)
+            } else if s.reference == "tip_mass" {
+                format!(
+                    "density from the tip masses' frequency shift, torque scale found {:.4}",
+                    s.sensors.torque_scale
+                )
             } else {
                 "torque taken to read true (scale 1): masses, EI and friction carry its scale error".into()
             },
@@ -302,7 +339,7 @@ fn log_fits<const N: usize>(
         .iter()
         .map(|e| Experiment {
             log: beam_tools::replay::corrected(&e.log, sensors),
-            windows: e.windows,
+            ..e.clone()
         })
         .collect();
     let mut fits =
