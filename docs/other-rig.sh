@@ -3,8 +3,9 @@
 # on a geared hub, PD 20/1 moves of 60 deg in 1.0 s (to calibrate on) and 90 deg in 1.2 s
 # (held out), logged at 500 Hz (the torque as the mean over each 2 ms, read 5 % high, plus
 # 5 mN m of noise); then the calibration from a guess 12-20 % off by the paper's steps and
-# by the split (torque trusted, and density known), and the held-out log replayed with the
-# truth and with what each found. Run from the repository root; writes into ${1:-target/other-rig}.
+# by the split (torque trusted, density known, and the 60 deg move logged again with a weighed
+# 0.1 kg at the tip: the mass-change method), and the held-out log replayed with the truth
+# and with what each found. Run from the repository root; writes into ${1:-target/other-rig}.
 set -euo pipefail
 out=${1:-target/other-rig}
 mkdir -p "$out"
@@ -27,11 +28,12 @@ for name, d in (('truth', truth), ('guess', guess)):
 PY
 beam simulate --params "$out/truth.toml" --controller pd --move 30 --from -30 --time 1.0 --duration 2.5 --csv "$out/full_a.csv" > /dev/null
 beam simulate --params "$out/truth.toml" --controller pd --move 45 --from -45 --time 1.2 --duration 2.5 --csv "$out/full_b.csv" > /dev/null
+beam simulate --params "$out/truth.toml" --tip-mass 0.1 --controller pd --move 30 --from -30 --time 1.0 --duration 2.5 --csv "$out/full_c.csv" > /dev/null
 python3 - "$out" <<'PY'
 import csv, random, sys
 out = sys.argv[1]
 random.seed(7)
-for tag in 'ab':
+for tag in 'abc':
     rows = list(csv.DictReader(open(f'{out}/full_{tag}.csv')))
     with open(f'{out}/log_{tag}.csv', 'w') as f:
         f.write('t_s,torque_nm,theta_rad,root_strain\n')
@@ -47,7 +49,9 @@ beam calibrate "$out/log_a.csv" --params "$out/guess.toml" --out "$out/found.tom
 beam calibrate "$out/log_a.csv" --params "$out/guess.toml" --method split --out "$out/split.toml"
 beam calibrate "$out/log_a.csv" --params "$out/guess.toml" --method split --known-density 7850 \
   --out "$out/split_density.toml"
-for p in truth found split split_density; do
+beam calibrate "$out/log_a.csv" "$out/log_c.csv" --tip-masses 0,0.1 --params "$out/guess.toml" \
+  --method split --out "$out/split_mass.toml"
+for p in truth found split split_density split_mass; do
   echo "== model $p"; beam model --params "$out/$p.toml" --json | python3 -c \
     "import json,sys; d=json.load(sys.stdin); print('clamped', d['clamped_hz'][0], 'Hz, pinned', d['pinned_hz'][0], 'Hz')"
   grep -E '^(ei_nm2|density_kg_m3|jm_kgm2|viscous_nms|coulomb_nm|torque_scale|gauge_scale|root_gauge_m) ' "$out/$p.toml" | tr '\n' ' '; echo
