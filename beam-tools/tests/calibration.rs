@@ -592,4 +592,3 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
         covers(&report, seed);
     }
 }
-

@@ -189,7 +189,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             .zip(&names)
             .map(|((e, f), name)| {
                 let w = &e.windows;
-                json!({"log": name, "samples": e.log.t.len(),
+                json!({"log": name, "samples": e.log.t.len(), "tip_mass_kg": e.params(&guess).tip_mass_kg,
                        "windows_s": [w.start_s, w.end_s, w.settle_end_s],
                        "rms_theta_err_rad": f.rms_theta_err_rad, "rms_strain_err_ue": f.rms_strain_err_ue})
             })
