@@ -240,7 +240,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                     s.sensors.torque_scale
                 )
             } else {
-                "torque taken to read true (scale 1): masses, EI and friction carry its scale error".into()
+                "torque taken to read true (scale 1): masses, EI and friction carry its scale error (--known-density, or logs with two --tip-masses, measure it)".into()
             },
             if s.offset_fitted {
                 format!("torque offset {:.2e} N m", s.sensors.torque_offset_nm)
