@@ -92,7 +92,7 @@ pub const BOTH_WAYS_FRACTION: f64 = 0.2;
 /// What the split found besides the beam's parameters.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SplitReport {
-    /// The rig's instruments: torque scale (fitted only with a known density), torque
+    /// The rig's instruments: torque scale (fitted unless the torque is the reference), torque
     /// offset, gauge scale.
     pub sensors: Sensors,
     /// `torque`, `density` or `tip_mass`: what fixed the level.
