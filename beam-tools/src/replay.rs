@@ -80,11 +80,14 @@ pub fn hub_window_s(params: &BeamParams) -> f64 {
     let f2 = b * b / (2.0 * core::f64::consts::PI * p.length_m * p.length_m)
         * (p.ei_nm2 / p.rho_kg_m()).sqrt();
     if f2.is_finite() && f2 > 0.0 {
-        (0.25 / f2).clamp(0.005, 0.030)
+        (0.25 / f2).clamp(HUB_WINDOW_S.0, HUB_WINDOW_S.1)
     } else {
-        0.005
+        HUB_WINDOW_S.0
     }
 }
+
+/// The prescribed hub's half-width stays within these, s.
+pub const HUB_WINDOW_S: (f64, f64) = (0.005, 0.030);
 
 /// The hub's motion taken from a log: rate and acceleration at each sample.
 #[derive(Clone, Debug, PartialEq)]

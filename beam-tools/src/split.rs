@@ -33,7 +33,7 @@ use crate::calibrate::{minimise, replay, CalibrateError, Experiment, Tradeoff, U
 use crate::lsq::Normal;
 use crate::optimize::Param;
 use crate::params_file::Sensors;
-use crate::replay::{corrected, hub_window_s, prescribed, HubMotion};
+use crate::replay::{corrected, hub_window_s, prescribed, HubMotion, HUB_WINDOW_S};
 use host_tests::plant::COULOMB_SMOOTHING_RAD_S;
 use model_core::{Beam, BeamParams};
 use rand::{rngs::StdRng, Rng, SeedableRng};
@@ -114,6 +114,38 @@ pub struct SplitReport {
     pub uncertainty: Vec<Uncertainty>,
     /// Pairs the logs do not tell apart.
     pub tradeoffs: Vec<Tradeoff>,
+    /// How far the torque balance's results move with the prescribed hub smoothed
+    /// differently (counted in `uncertainty`).
+    pub window_shift: Vec<WindowShift>,
+}
+
+/// The prescribed hub's half-width is multiplied by these to see how much the results
+/// depend on it, within [`HUB_WINDOW_S`] (below 5 ms the encoder's steps, not the model,
+/// would move them). Not doubled: the half-width is a quarter period of the second mode,
+/// and at twice that the hub loses the mode (on the drive's own log of the aluminium beam
+/// doubling moved EI by 3 times its noise, where it was 0.13 % off).
+pub const WINDOW_FACTORS: [f64; 2] = [0.5, core::f64::consts::SQRT_2];
+
+/// `beam calibrate` warns when a result moves by more than this many times its noise with
+/// the hub smoothed differently. (On the other rig's forward log the largest ratio is 0.7,
+/// Jm's; backwards, Jm's is 36.)
+pub const WINDOW_WARNING: f64 = 2.0;
+
+/// How much a result depends on the prescribed hub's smoothing: a model error (the beam
+/// driven by a hub smoother than the real one), which neither the Gauss-Newton intervals
+/// nor the bootstrap see. Step 1's shift is one Gauss-Newton step on the strain of the
+/// beam driven by each other hub; step 2's, the balance refitted with R from it. On the
+/// other rig's forward log halving the half-width moves Jm by 0.7 of its noise; on the
+/// same move backwards, where the hub chatters at an encoder count's edge, by 36 times it
+/// (Jm 4.9e-3 becomes 3.9e-2; the truth is 1e-2).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct WindowShift {
+    /// The parameter.
+    pub name: &'static str,
+    /// Its standard error from the bootstrap (the noise alone).
+    pub noise: f64,
+    /// The larger of its shifts with the half-width times each of [`WINDOW_FACTORS`].
+    pub shift: f64,
 }
 
 fn in_window(e: &Experiment, k: usize) -> bool {
@@ -132,6 +164,11 @@ struct BeamFit {
     corr: [[f64; 5]; 5],
     /// Standard error of ln EI (ln EI/rho plus ln rho, with their covariance).
     ln_ei_std_err: f64,
+    /// The larger shift of each, in the same slots, with the hub smoothed differently
+    /// ([`WINDOW_FACTORS`]).
+    shift: [f64; 5],
+    /// The same for ln EI.
+    ln_ei_shift: f64,
 }
 
 /// One row of the torque balance.
@@ -188,7 +225,15 @@ pub fn calibrate_split<const N: usize>(
     }
     let window = hub_window_s(&g);
     let hubs: Vec<HubMotion> = exps.iter().map(|e| HubMotion::of(&e.log, window)).collect();
-    let beam = fit_beam::<N>(exps, &hubs, &g, options)?;
+    let alt_hubs: Vec<Vec<HubMotion>> = WINDOW_FACTORS
+        .iter()
+        .map(|f| {
+            exps.iter()
+                .map(|e| HubMotion::of(&e.log, (window * f).clamp(HUB_WINDOW_S.0, HUB_WINDOW_S.1)))
+                .collect()
+        })
+        .collect();
+    let beam = fit_beam::<N>(exps, &hubs, &alt_hubs, &g, options)?;
     // The balance's rates from a short fit: it needs them only at the intervals' ends,
     // where the encoder's noise is averaged by the interval, while a wide fit's smoothing
     // is a bias that correlates with the motion.
@@ -281,7 +326,58 @@ pub fn calibrate_split<const N: usize>(
         let m = boot.iter().map(|b| b[i]).sum::<f64>() / n;
         (boot.iter().map(|b| (b[i] - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt()
     };
-    let sd: Vec<f64> = (0..6).map(mean_sd).collect();
+    // The model's error as the balance's sensitivity to the hub's smoothing, added to the
+    // noise in quadrature.
+    let mut shift = [0.0f64; 6];
+    for alt in &alt_hubs {
+        let (alt_rows, _) = balance_rows::<N>(exps, alt, &rates, &p)?;
+        let da = derive(&fit_balance(&alt_rows, offset_fitted)?, &p);
+        for (s, (a, b)) in shift.iter_mut().zip(da.iter().zip(&d)) {
+            *s = s.max((a - b).abs());
+        }
+    }
+    let noise: Vec<f64> = (0..6).map(mean_sd).collect();
+    let sd: Vec<f64> = noise.iter().zip(&shift).map(|(n, s)| n.hypot(*s)).collect();
+    // The balance's results this reference reports.
+    let used: Vec<usize> = (0..6)
+        .filter(|&i| match i {
+            1 => matches!(reference, Reference::Torque),
+            4 => reference.measures_scale(),
+            5 => offset_fitted,
+            _ => true,
+        })
+        .collect();
+    let mut window_shift: Vec<WindowShift> = used
+        .iter()
+        .map(|&i| WindowShift {
+            name: names[i],
+            noise: noise[i],
+            shift: shift[i],
+        })
+        .collect();
+    // Step 1's, in the parameters' units (EI's from EI/rho alone unless step 1 fits the
+    // density too).
+    let (ei_noise, ei_shift) = match reference {
+        Reference::TipMass => (beam.ln_ei_std_err, beam.ln_ei_shift),
+        _ => (beam.std_err[0], beam.shift[0]),
+    };
+    let mut beam_shift =
+        |name, noise: f64, shift: f64| window_shift.push(WindowShift { name, noise, shift });
+    beam_shift("ei_nm2", ei_noise * p.ei_nm2, ei_shift * p.ei_nm2);
+    if reference == Reference::TipMass {
+        let rho = p.density_kg_m3;
+        beam_shift("density_kg_m3", beam.std_err[4] * rho, beam.shift[4] * rho);
+    }
+    let zeta = p.damping_ratio;
+    beam_shift(
+        "damping_ratio",
+        beam.std_err[1] * zeta,
+        beam.shift[1] * zeta,
+    );
+    if options.fit_gauge_position {
+        beam_shift("root_gauge_m", beam.std_err[2], beam.shift[2]);
+    }
+    beam_shift("gauge_scale", beam.std_err[3], beam.shift[3]);
     let mut uncertainty = vec![];
     let mut add = |name: &'static str, value: f64, std_err: f64| {
         uncertainty.push(Uncertainty {
@@ -293,7 +389,9 @@ pub fn calibrate_split<const N: usize>(
     // With the tip mass as the reference, step 1's density sets the level of everything
     // the balance scales with it (the scaling of tests/physics.rs): its relative error
     // adds in quadrature to theirs (the two steps fit different signals).
-    let rel_level = beam.std_err[4];
+    // Step 1's errors: the noise's and the hub's smoothing's, in quadrature.
+    let bsd = |slot: usize| beam.std_err[slot].hypot(beam.shift[slot]);
+    let rel_level = bsd(4);
     let level = |sd: f64, value: f64| (sd * sd + (rel_level * value).powi(2)).sqrt();
     add("jm_kgm2", found.jm_kgm2, level(sd[0], found.jm_kgm2));
     match reference {
@@ -309,10 +407,8 @@ pub fn calibrate_split<const N: usize>(
     // 2, on another signal, and the relative errors add in quadrature; otherwise step 1
     // gives both (and with a known density, the ratio's error alone).
     let rel_ei = match reference {
-        Reference::Torque => {
-            (beam.std_err[0].powi(2) + (sd[1] / found.density_kg_m3).powi(2)).sqrt()
-        }
-        _ => beam.ln_ei_std_err,
+        Reference::Torque => (bsd(0).powi(2) + (sd[1] / found.density_kg_m3).powi(2)).sqrt(),
+        _ => beam.ln_ei_std_err.hypot(beam.ln_ei_shift),
     };
     add("ei_nm2", found.ei_nm2, rel_ei * found.ei_nm2);
     add(
@@ -338,12 +434,12 @@ pub fn calibrate_split<const N: usize>(
     add(
         "damping_ratio",
         found.damping_ratio,
-        beam.std_err[1] * found.damping_ratio,
+        bsd(1) * found.damping_ratio,
     );
     if options.fit_gauge_position {
-        add("root_gauge_m", found.root_gauge_m, beam.std_err[2]);
+        add("root_gauge_m", found.root_gauge_m, bsd(2));
     }
-    add("gauge_scale", sensors.gauge_scale, beam.std_err[3]);
+    add("gauge_scale", sensors.gauge_scale, bsd(3));
     let mut tradeoffs = vec![];
     let beam_names = [
         "ei_over_density",
@@ -364,14 +460,6 @@ pub fn calibrate_split<const N: usize>(
             }
         }
     }
-    let used: Vec<usize> = (0..6)
-        .filter(|&i| match i {
-            1 => matches!(reference, Reference::Torque),
-            4 => reference.measures_scale(),
-            5 => offset_fitted,
-            _ => true,
-        })
-        .collect();
     for (ia, &a) in used.iter().enumerate() {
         for &b in &used[ia + 1..] {
             let c = correlation(&boot, a, b);
@@ -419,6 +507,7 @@ pub fn calibrate_split<const N: usize>(
             replay_rms_theta_err_rad: (th_se / th_n.max(1) as f64).sqrt(),
             uncertainty,
             tradeoffs,
+            window_shift,
         },
     ))
 }
@@ -429,6 +518,7 @@ pub fn calibrate_split<const N: usize>(
 fn fit_beam<const N: usize>(
     exps: &[Experiment],
     hubs: &[HubMotion],
+    alt_hubs: &[Vec<HubMotion>],
     g: &BeamParams,
     options: &SplitOptions,
 ) -> Result<BeamFit, CalibrateError> {
@@ -483,7 +573,7 @@ fn fit_beam<const N: usize>(
         p
     };
     // Model and measured strain (ue) over every log's window.
-    let strains = |p: &BeamParams| -> Option<(Vec<f64>, Vec<f64>)> {
+    let strains_on = |p: &BeamParams, hubs: &[HubMotion]| -> Option<(Vec<f64>, Vec<f64>)> {
         let (mut model, mut measured) = (vec![], vec![]);
         for (e, hub) in exps.iter().zip(hubs) {
             let eps = prescribed::<N>(&e.params(p), &e.log, hub)?.root_strain;
@@ -496,6 +586,7 @@ fn fit_beam<const N: usize>(
         }
         Some((model, measured))
     };
+    let strains = |p: &BeamParams| strains_on(p, hubs);
     // With the best gauge scale s = pm/pp the residual is mm - pm^2/pp.
     let sums = |m: &[f64], y: &[f64]| -> (f64, f64, f64) {
         m.iter()
@@ -669,6 +760,34 @@ fn fit_beam<const N: usize>(
         }
         None => std_err = [f64::INFINITY; 5],
     }
+    // The model's error as the fit's sensitivity to the hub's smoothing: one Gauss-Newton
+    // step from the result on the strain of the beam driven by each other hub (the
+    // Jacobian the same: the shift is small where it matters, the noise's size).
+    let (mut shift, mut ln_ei_shift) = ([0.0f64; 5], 0.0f64);
+    for alt in alt_hubs {
+        let (m_alt, _) =
+            strains_on(&params, alt).ok_or(CalibrateError::Breakdown { step: "beam" })?;
+        let mut normal = Normal::new(k);
+        for i in 0..n {
+            let x: Vec<f64> = cols.iter().map(|c| c[i]).collect();
+            normal.add(&x, y[i] - scale * m_alt[i]);
+        }
+        match normal.solve() {
+            Some(f) => {
+                for (i, d) in f.coef.iter().enumerate() {
+                    shift[slots[i]] = shift[slots[i]].max(d.abs());
+                }
+                let at = |slot: usize| {
+                    slots
+                        .iter()
+                        .position(|&s| s == slot)
+                        .map_or(0.0, |i| f.coef[i])
+                };
+                ln_ei_shift = ln_ei_shift.max((at(0) + at(4)).abs());
+            }
+            None => shift = [f64::INFINITY; 5],
+        }
+    }
     Ok(BeamFit {
         params,
         gauge_scale: scale,
@@ -676,6 +795,8 @@ fn fit_beam<const N: usize>(
         std_err,
         corr,
         ln_ei_std_err,
+        shift,
+        ln_ei_shift,
     })
 }
 

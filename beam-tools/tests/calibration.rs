@@ -447,14 +447,30 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     );
 
     // The same move backwards: the hub starts parked on an encoder count's edge and the PD
-    // chatters there, which the prescribed hub (smoothed over 15 ms against the counts)
+    // chatters there, which the prescribed hub (smoothed over 13 ms against the counts)
     // does not carry into the beam. The frequency, EI and the held-out prediction hold;
-    // the rigid body does not (README: torque scale 1.20 +- 0.05, Jm half the truth), so
-    // no interval is asked of it here.
+    // the rigid body does not (torque scale 1.21, Jm half the truth). The results'
+    // dependence on the hub's smoothing says so: Jm moves by many times its noise with
+    // the half-width halved (here, not forwards), and the intervals that count it are
+    // wide enough to hold the truth.
+    let flagged = |r: &beam_tools::split::SplitReport| {
+        let w = r.window_shift.iter().find(|w| w.name == "jm_kgm2").unwrap();
+        w.shift > beam_tools::split::WINDOW_WARNING * w.noise
+    };
+    assert!(!flagged(&report), "{report:?}");
     let back = other_rig_log(truth, -60.0, 1.0, 12345);
     let windows = find_windows(&back).unwrap();
     let exps_back = [Experiment::new(back, windows)];
-    let (fb, sb, _) = calibrate_split::<3>(&exps_back, &guess, &options).unwrap();
+    let (fb, sb, rb) = calibrate_split::<3>(&exps_back, &guess, &options).unwrap();
+    assert!(flagged(&rb), "{rb:?}");
+    for u in &rb.uncertainty {
+        let z = (u.value - truth_of(u.name)).abs() / u.std_err;
+        eprintln!(
+            "backwards {}: {:.4e} +- {:.1e}, {z:.2} sigma",
+            u.name, u.value, u.std_err
+        );
+        assert!(z < 2.0, "backwards: {}: {z:.2} sigma", u.name);
+    }
     assert!(
         rel(model(fb).clamped_hz[0], tm.clamped_hz[0]) < 0.01,
         "{fb:?}"
@@ -490,6 +506,10 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     );
     assert!((so.torque_offset_nm - 0.01).abs() < 2.0 * sd("torque_offset_nm"));
     assert!((fo.coulomb_nm - truth.coulomb_nm).abs() < 2.0 * sd("coulomb_nm"));
+    // (The intervals are wide with the backward log in: its hub's smoothing moves the
+    // friction. The values themselves are close.)
+    assert!((so.torque_offset_nm - 0.01).abs() < 0.002, "{so:?}");
+    assert!((fo.coulomb_nm - truth.coulomb_nm).abs() < 0.005, "{fo:?}");
     assert!(matches!(
         calibrate_split::<3>(&both[..1], &guess, &options_offset),
         Err(beam_tools::calibrate::CalibrateError::OneWay)
@@ -571,15 +591,17 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
     assert!(rel(found.ei_nm2, truth.ei_nm2) < 0.05, "{found:?}");
     assert!(rel(found.jm_kgm2, truth.jm_kgm2) < 0.1, "{found:?}");
     assert!(rel(sensors.torque_scale, 1.05) < 0.02, "{sensors:?}");
-    // The level's intervals hold the truth, for this and other draws of the torque's noise.
-    // Not every interval does here (over six draws: EI's 2.3 sigma off, Jm's 1.8-2.1,
-    // the damping's 7.6; step 1's intervals count the noise, not the prescribed hub's
-    // error; README, "Where calibration still fails").
+    // The level's intervals and the hub's hold the truth, for this and other draws of the
+    // torque's noise. Not every interval does here: EI's is 2.3 sigma off and the
+    // damping's 7.2 in every draw (the strain carries no noise in these logs, so step 1's
+    // residual is the model's error, and the loaded beam's is not the hub's smoothing;
+    // README, "Where calibration still fails").
     let covers = |report: &beam_tools::split::SplitReport, seed: u64| {
         for (name, truth) in [
             ("density_kg_m3", truth.density_kg_m3),
             ("torque_scale", 1.05),
             ("coulomb_nm", truth.coulomb_nm),
+            ("jm_kgm2", truth.jm_kgm2),
         ] {
             let u = report.uncertainty.iter().find(|u| u.name == name).unwrap();
             let z = (u.value - truth).abs() / u.std_err;

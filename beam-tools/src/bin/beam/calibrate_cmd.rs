@@ -260,7 +260,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                 .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
                 .collect();
             let how = if split.is_some() {
-                "one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap)"
+                "one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over half or 1.4 times the width)"
             } else {
                 "one-sigma (noise only, near the result)"
             };
@@ -273,6 +273,16 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             }
         }
         None => println!("  warning: a parameter has no effect on these logs; no uncertainties"),
+    }
+    for w in split.iter().flat_map(|s| &s.window_shift) {
+        if w.shift > beam_tools::split::WINDOW_WARNING * w.noise {
+            println!(
+                "  warning: {} moves {:.1e} when the prescribed hub is smoothed over half or 1.4 times the width, {:.0} times its noise: how the hub's fast motion is modelled limits it on these logs more than their noise (its interval counts the shift)",
+                w.name,
+                w.shift,
+                w.shift / w.noise
+            );
+        }
     }
     println!("  identified: {fm}");
     println!("  guess was:  {gm}");
