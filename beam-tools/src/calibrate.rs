@@ -151,7 +151,8 @@ pub enum CalibrateError {
     /// The torque balance came out unphysical: the logs do not determine the rigid body.
     #[error(
         "the torque balance gives Jm {jm:.3e} kg m^2, density {density:.4e} kg/m^3 and torque \
-         scale {torque_scale:.3} (each must be > 0): the logs do not determine the rigid body"
+         scale {torque_scale:.3} (each must be > 0): the logs do not determine the rigid body, \
+         or the starting parameters (tip mass, gauge) do not describe the rig"
     )]
     Unphysical {
         /// The hub's inertia found.

@@ -261,9 +261,19 @@ pub fn calibrate_split<const N: usize>(
         if reference.measures_scale() || (scale_now - 1.0).abs() < 1e-9 {
             break;
         }
+        // A balance that wants no beam, or a negative one, is the logs' answer, not the
+        // model's breakdown: say what it found.
+        let unphysical = CalibrateError::Unphysical {
+            jm: coef[0],
+            density: p.density_kg_m3 * scale_now,
+            torque_scale: 1.0,
+        };
+        if !(scale_now > 0.0) {
+            return Err(unphysical);
+        }
         p.density_kg_m3 *= scale_now;
         p.ei_nm2 = ratio * p.density_kg_m3;
-        Beam::try_build(p).map_err(|_| CalibrateError::Breakdown { step: "rigid" })?;
+        Beam::try_build(p).map_err(|_| unphysical)?;
     }
     let derive = |c: &[f64; 5], p: &BeamParams| -> [f64; 6] {
         // [Jm, density, viscous, Coulomb, torque scale, offset]

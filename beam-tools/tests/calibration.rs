@@ -573,6 +573,20 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
         calibrate_split::<3>(&exps[1..], &guess, &options),
         Err(CalibrateError::OneTipMass)
     ));
+    // The bare log said to carry the mass: the balance wants a negative beam, and says so
+    // rather than breaking down.
+    let mislabelled = [Experiment {
+        tip_mass_kg: Some(0.1),
+        ..exps[0].clone()
+    }];
+    let torque = SplitOptions {
+        reference: Reference::Torque,
+        ..options
+    };
+    assert!(matches!(
+        calibrate_split::<3>(&mislabelled, &guess, &torque),
+        Err(CalibrateError::Unphysical { .. })
+    ));
     let (found, sensors, report) = calibrate_split::<3>(&exps, &guess, &options).unwrap();
     let rel = |a: f64, b: f64| (a / b - 1.0).abs();
     for u in &report.uncertainty {
