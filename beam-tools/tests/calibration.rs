@@ -412,24 +412,24 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
         other => panic!("an interval for {other}, which this test does not know"),
     };
     assert!(report.uncertainty.len() >= 6, "{report:?}");
-    for u in &report.uncertainty {
-        let z = (u.value - truth_of(u.name)).abs() / u.std_err;
-        eprintln!(
-            "{}: {:.4e} +- {:.1e}, {z:.2} sigma from the truth",
-            u.name, u.value, u.std_err
-        );
-        assert!(z < 2.0, "{}: {z:.2} sigma", u.name);
-    }
+    let covers = |r: &beam_tools::split::SplitReport, what: &str| {
+        for u in &r.uncertainty {
+            let z = (u.value - truth_of(u.name)).abs() / u.std_err;
+            eprintln!(
+                "{what}: {}: {:.4e} +- {:.1e}, {z:.2} sigma from the truth",
+                u.name, u.value, u.std_err
+            );
+            assert!(z < 2.0, "{what}: {}: {z:.2} sigma", u.name);
+        }
+    };
+    covers(&report, "forwards");
     // Other draws of the torque's noise: the intervals hold the truth in each.
     for seed in [1u64, 2, 3, 4] {
         let log = other_rig_log(truth, 60.0, 1.0, seed);
         let windows = find_windows(&log).unwrap();
         let exps = [Experiment::new(log, windows)];
         let (_, _, report) = calibrate_split::<3>(&exps, &guess, &options).unwrap();
-        for u in &report.uncertainty {
-            let z = (u.value - truth_of(u.name)).abs() / u.std_err;
-            assert!(z < 2.0, "noise draw {seed}: {}: {z:.2} sigma", u.name);
-        }
+        covers(&report, &format!("noise draw {seed}"));
     }
     // The held-out move.
     let held = other_rig_log(truth, 90.0, 1.2, 777);
@@ -463,14 +463,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     let exps_back = [Experiment::new(back, windows)];
     let (fb, sb, rb) = calibrate_split::<3>(&exps_back, &guess, &options).unwrap();
     assert!(flagged(&rb), "{rb:?}");
-    for u in &rb.uncertainty {
-        let z = (u.value - truth_of(u.name)).abs() / u.std_err;
-        eprintln!(
-            "backwards {}: {:.4e} +- {:.1e}, {z:.2} sigma",
-            u.name, u.value, u.std_err
-        );
-        assert!(z < 2.0, "backwards: {}: {z:.2} sigma", u.name);
-    }
+    covers(&rb, "backwards");
     assert!(
         rel(model(fb).clamped_hz[0], tm.clamped_hz[0]) < 0.01,
         "{fb:?}"

@@ -253,6 +253,8 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             s.replay_rms_theta_err_rad
         );
     }
+    let [lo, hi] = beam_tools::split::WINDOW_FACTORS;
+    let smoothing = format!("{lo:.1} or {hi:.1} times the width");
     match &spread {
         Some((errs, trades)) => {
             let parts: Vec<String> = errs
@@ -260,9 +262,9 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                 .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
                 .collect();
             let how = if split.is_some() {
-                "one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over half or 1.4 times the width)"
+                format!("one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over {smoothing})")
             } else {
-                "one-sigma (noise only, near the result)"
+                "one-sigma (noise only, near the result)".into()
             };
             println!("  {how}: {}", parts.join(", "));
             for t in trades {
@@ -277,7 +279,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     for w in split.iter().flat_map(|s| &s.window_shift) {
         if w.shift > beam_tools::split::WINDOW_WARNING * w.noise {
             println!(
-                "  warning: {} moves {:.1e} when the prescribed hub is smoothed over half or 1.4 times the width, {:.0} times its noise: how the hub's fast motion is modelled limits it on these logs more than their noise (its interval counts the shift)",
+                "  warning: {} moves {:.1e} when the prescribed hub is smoothed over {smoothing}, {:.0} times its noise: how the hub's fast motion is modelled limits it on these logs more than their noise (its interval counts the shift)",
                 w.name,
                 w.shift,
                 w.shift / w.noise
