@@ -29,11 +29,14 @@
 //! residuals' lag-one autocorrelation counted (fewer independent samples than logged);
 //! step 2's from a moving-block bootstrap of the balance's samples.
 
-use crate::calibrate::{minimise, replay, CalibrateError, Experiment, Tradeoff, Uncertainty};
+use crate::calibrate::{minimise, replay, CalibrateError, Experiment, Log, Tradeoff, Uncertainty};
 use crate::lsq::Normal;
 use crate::optimize::Param;
 use crate::params_file::Sensors;
-use crate::replay::{corrected, hub_window_s, prescribed, HubMotion, HUB_WINDOW_S};
+use crate::replay::{
+    corrected, encoder_step, hub_window_s, prescribed, requantised, HubMotion, ENCODER_PHASES,
+    HUB_WINDOW_S,
+};
 use host_tests::plant::COULOMB_SMOOTHING_RAD_S;
 use model_core::{Beam, BeamParams};
 use rand::{rngs::StdRng, Rng, SeedableRng};
@@ -146,6 +149,10 @@ pub struct WindowShift {
     pub noise: f64,
     /// The larger of its shifts with the half-width times each of [`WINDOW_FACTORS`].
     pub shift: f64,
+    /// The RMS of its shifts with the logged angle smoothed and quantised again to the
+    /// encoder's step at each of [`ENCODER_PHASES`] (zero if no log's angle is quantised):
+    /// the encoder's error, which enters as the beam's input and so is not in the noise.
+    pub encoder: f64,
 }
 
 fn in_window(e: &Experiment, k: usize) -> bool {
@@ -169,6 +176,11 @@ struct BeamFit {
     shift: [f64; 5],
     /// The same for ln EI.
     ln_ei_shift: f64,
+    /// The RMS shift of each, in the same slots, with the angle re-quantised
+    /// ([`ENCODER_PHASES`]).
+    encoder: [f64; 5],
+    /// The same for ln EI.
+    ln_ei_encoder: f64,
 }
 
 /// One row of the torque balance.
@@ -233,7 +245,32 @@ pub fn calibrate_split<const N: usize>(
                 .collect()
         })
         .collect();
-    let beam = fit_beam::<N>(exps, &hubs, &alt_hubs, &g, options)?;
+    // The angle quantised again at other phases of its encoder's step (each log that is
+    // quantised; the others as logged), for the results' sensitivity to the encoder.
+    let dt = exps[0].log.t[1] - exps[0].log.t[0];
+    let half = ((window / dt).round() as usize).max(2);
+    let steps: Vec<Option<f64>> = exps.iter().map(|e| encoder_step(&e.log.theta)).collect();
+    let requantised_logs: Vec<Vec<Log>> = if steps.iter().any(Option::is_some) {
+        ENCODER_PHASES
+            .iter()
+            .map(|&phase| {
+                exps.iter()
+                    .zip(&steps)
+                    .map(|(e, step)| match step {
+                        Some(q) => requantised(&e.log, half, *q, phase),
+                        None => e.log.clone(),
+                    })
+                    .collect()
+            })
+            .collect()
+    } else {
+        vec![]
+    };
+    let enc_hubs: Vec<Vec<HubMotion>> = requantised_logs
+        .iter()
+        .map(|logs| logs.iter().map(|l| HubMotion::of(l, window)).collect())
+        .collect();
+    let beam = fit_beam::<N>(exps, &hubs, &alt_hubs, &enc_hubs, &g, options)?;
     // The balance's rates from a short fit: it needs them only at the intervals' ends,
     // where the encoder's noise is averaged by the interval, while a wide fit's smoothing
     // is a bias that correlates with the motion.
@@ -346,8 +383,25 @@ pub fn calibrate_split<const N: usize>(
             *s = s.max((a - b).abs());
         }
     }
+    // And to the encoder: the RMS shift over the re-quantised angles, the rates at the
+    // intervals' ends taken from them too.
+    let mut encoder = [0.0f64; 6];
+    for (logs, hub) in requantised_logs.iter().zip(&enc_hubs) {
+        let enc_rates: Vec<HubMotion> = logs
+            .iter()
+            .map(|l| HubMotion::of(l, BALANCE_RATE_WINDOW_S))
+            .collect();
+        let (alt_rows, _) = balance_rows::<N>(exps, hub, &enc_rates, &p)?;
+        let da = derive(&fit_balance(&alt_rows, offset_fitted)?, &p);
+        for (s, (a, b)) in encoder.iter_mut().zip(da.iter().zip(&d)) {
+            *s += (a - b).powi(2) / ENCODER_PHASES.len() as f64;
+        }
+    }
+    let encoder = encoder.map(f64::sqrt);
     let noise: Vec<f64> = (0..6).map(mean_sd).collect();
-    let sd: Vec<f64> = noise.iter().zip(&shift).map(|(n, s)| n.hypot(*s)).collect();
+    let sd: Vec<f64> = (0..6)
+        .map(|i| noise[i].hypot(shift[i]).hypot(encoder[i]))
+        .collect();
     // The balance's results this reference reports.
     let used: Vec<usize> = (0..6)
         .filter(|&i| match i {
@@ -363,31 +417,58 @@ pub fn calibrate_split<const N: usize>(
             name: names[i],
             noise: noise[i],
             shift: shift[i],
+            encoder: encoder[i],
         })
         .collect();
     // Step 1's, in the parameters' units (EI's from EI/rho alone unless step 1 fits the
     // density too).
-    let (ei_noise, ei_shift) = match reference {
-        Reference::TipMass => (beam.ln_ei_std_err, beam.ln_ei_shift),
-        _ => (beam.std_err[0], beam.shift[0]),
+    let (ei_noise, ei_shift, ei_encoder) = match reference {
+        Reference::TipMass => (beam.ln_ei_std_err, beam.ln_ei_shift, beam.ln_ei_encoder),
+        _ => (beam.std_err[0], beam.shift[0], beam.encoder[0]),
     };
-    let mut beam_shift =
-        |name, noise: f64, shift: f64| window_shift.push(WindowShift { name, noise, shift });
-    beam_shift("ei_nm2", ei_noise * p.ei_nm2, ei_shift * p.ei_nm2);
+    let mut beam_shift = |name, unit: f64, noise: f64, shift: f64, encoder: f64| {
+        window_shift.push(WindowShift {
+            name,
+            noise: noise * unit,
+            shift: shift * unit,
+            encoder: encoder * unit,
+        })
+    };
+    beam_shift("ei_nm2", p.ei_nm2, ei_noise, ei_shift, ei_encoder);
     if reference == Reference::TipMass {
         let rho = p.density_kg_m3;
-        beam_shift("density_kg_m3", beam.std_err[4] * rho, beam.shift[4] * rho);
+        beam_shift(
+            "density_kg_m3",
+            rho,
+            beam.std_err[4],
+            beam.shift[4],
+            beam.encoder[4],
+        );
     }
     let zeta = p.damping_ratio;
     beam_shift(
         "damping_ratio",
-        beam.std_err[1] * zeta,
-        beam.shift[1] * zeta,
+        zeta,
+        beam.std_err[1],
+        beam.shift[1],
+        beam.encoder[1],
     );
     if options.fit_gauge_position {
-        beam_shift("root_gauge_m", beam.std_err[2], beam.shift[2]);
+        beam_shift(
+            "root_gauge_m",
+            1.0,
+            beam.std_err[2],
+            beam.shift[2],
+            beam.encoder[2],
+        );
     }
-    beam_shift("gauge_scale", beam.std_err[3], beam.shift[3]);
+    beam_shift(
+        "gauge_scale",
+        1.0,
+        beam.std_err[3],
+        beam.shift[3],
+        beam.encoder[3],
+    );
     let mut uncertainty = vec![];
     let mut add = |name: &'static str, value: f64, std_err: f64| {
         uncertainty.push(Uncertainty {
@@ -399,8 +480,12 @@ pub fn calibrate_split<const N: usize>(
     // With the tip mass as the reference, step 1's density sets the level of everything
     // the balance scales with it (the scaling of tests/physics.rs): its relative error
     // adds in quadrature to theirs (the two steps fit different signals).
-    // Step 1's errors: the noise's and the hub's smoothing's, in quadrature.
-    let bsd = |slot: usize| beam.std_err[slot].hypot(beam.shift[slot]);
+    // Step 1's errors: the noise's, the hub's smoothing's and the encoder's, in quadrature.
+    let bsd = |slot: usize| {
+        beam.std_err[slot]
+            .hypot(beam.shift[slot])
+            .hypot(beam.encoder[slot])
+    };
     let rel_level = bsd(4);
     let level = |sd: f64, value: f64| (sd * sd + (rel_level * value).powi(2)).sqrt();
     add("jm_kgm2", found.jm_kgm2, level(sd[0], found.jm_kgm2));
@@ -418,7 +503,10 @@ pub fn calibrate_split<const N: usize>(
     // gives both (and with a known density, the ratio's error alone).
     let rel_ei = match reference {
         Reference::Torque => (bsd(0).powi(2) + (sd[1] / found.density_kg_m3).powi(2)).sqrt(),
-        _ => beam.ln_ei_std_err.hypot(beam.ln_ei_shift),
+        _ => beam
+            .ln_ei_std_err
+            .hypot(beam.ln_ei_shift)
+            .hypot(beam.ln_ei_encoder),
     };
     add("ei_nm2", found.ei_nm2, rel_ei * found.ei_nm2);
     add(
@@ -529,6 +617,7 @@ fn fit_beam<const N: usize>(
     exps: &[Experiment],
     hubs: &[HubMotion],
     alt_hubs: &[Vec<HubMotion>],
+    enc_hubs: &[Vec<HubMotion>],
     g: &BeamParams,
     options: &SplitOptions,
 ) -> Result<BeamFit, CalibrateError> {
@@ -652,8 +741,9 @@ fn fit_beam<const N: usize>(
     // the scale. (At the gauge's lower bound the difference is one-sided: the step down
     // is clamped.)
     type Jac = (Vec<f64>, Vec<f64>, f64, Vec<Vec<f64>>);
-    let jacobian = |q: &BeamParams| -> Result<Jac, CalibrateError> {
+    let jacobian = |q: &BeamParams, hubs: &[HubMotion]| -> Result<Jac, CalibrateError> {
         let breakdown = || CalibrateError::Breakdown { step: "beam" };
+        let strains = |p: &BeamParams| strains_on(p, hubs);
         let (m0, y) = strains(q).ok_or_else(breakdown)?;
         let (pm, pp, _) = sums(&m0, &y);
         if !(pp > 0.0) {
@@ -688,57 +778,62 @@ fn fit_beam<const N: usize>(
     // Levenberg-Marquardt from the search's result: the search stops short in a long
     // valley (a tip mass's density against EI/rho correlate at -0.9999 on a smooth move),
     // and the standard errors below hold only at the minimum.
-    let mut params = at(&u);
-    let (mut m0, mut y, mut scale, mut cols) = jacobian(&params)?;
-    let mut lambda = 1e-3;
-    for _ in 0..POLISH_ITERATIONS {
-        let k = cols.len();
-        let resid: Vec<f64> = m0.iter().zip(&y).map(|(m, y)| y - scale * m).collect();
-        let mut a = vec![vec![0.0; k]; k];
-        let mut g = vec![0.0; k];
-        for i in 0..k {
-            for j in 0..k {
-                a[i][j] = cols[i].iter().zip(&cols[j]).map(|(p, q)| p * q).sum();
-            }
-            g[i] = cols[i].iter().zip(&resid).map(|(p, r)| p * r).sum();
-        }
-        let before = rss(&m0, &y, scale);
-        let mut improved = false;
-        while lambda < 1e6 {
-            let mut damped = a.clone();
-            for (i, row) in damped.iter_mut().enumerate() {
-                row[i] += lambda * a[i][i];
-            }
-            let Some(d) = crate::lsq::solve(damped, g.clone()) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut q = params;
-            for (&kind, &d) in kinds.iter().zip(&d) {
-                q = step(&q, kind, d.clamp(-0.3, 0.3));
-            }
-            if Beam::try_build(q).is_ok() {
-                if let Some((m, yy)) = strains(&q) {
-                    let (pm, pp, _) = sums(&m, &yy);
-                    if pp > 0.0 && rss(&m, &yy, pm / pp) < before {
-                        params = q;
-                        improved = true;
-                        lambda = (lambda / 10.0).max(1e-6);
-                        break;
+    let polish =
+        |mut params: BeamParams, hubs: &[HubMotion]| -> Result<(BeamParams, Jac), CalibrateError> {
+            let strains = |p: &BeamParams| strains_on(p, hubs);
+            let (mut m0, mut y, mut scale, mut cols) = jacobian(&params, hubs)?;
+            let mut lambda = 1e-3;
+            for _ in 0..POLISH_ITERATIONS {
+                let k = cols.len();
+                let resid: Vec<f64> = m0.iter().zip(&y).map(|(m, y)| y - scale * m).collect();
+                let mut a = vec![vec![0.0; k]; k];
+                let mut g = vec![0.0; k];
+                for i in 0..k {
+                    for j in 0..k {
+                        a[i][j] = cols[i].iter().zip(&cols[j]).map(|(p, q)| p * q).sum();
                     }
+                    g[i] = cols[i].iter().zip(&resid).map(|(p, r)| p * r).sum();
+                }
+                let before = rss(&m0, &y, scale);
+                let mut improved = false;
+                while lambda < 1e6 {
+                    let mut damped = a.clone();
+                    for (i, row) in damped.iter_mut().enumerate() {
+                        row[i] += lambda * a[i][i];
+                    }
+                    let Some(d) = crate::lsq::solve(damped, g.clone()) else {
+                        lambda *= 10.0;
+                        continue;
+                    };
+                    let mut q = params;
+                    for (&kind, &d) in kinds.iter().zip(&d) {
+                        q = step(&q, kind, d.clamp(-0.3, 0.3));
+                    }
+                    if Beam::try_build(q).is_ok() {
+                        if let Some((m, yy)) = strains(&q) {
+                            let (pm, pp, _) = sums(&m, &yy);
+                            if pp > 0.0 && rss(&m, &yy, pm / pp) < before {
+                                params = q;
+                                improved = true;
+                                lambda = (lambda / 10.0).max(1e-6);
+                                break;
+                            }
+                        }
+                    }
+                    lambda *= 10.0;
+                }
+                if !improved {
+                    break;
+                }
+                (m0, y, scale, cols) = jacobian(&params, hubs)?;
+                let after = rss(&m0, &y, scale);
+                if before - after < 1e-6 * before {
+                    break;
                 }
             }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-        (m0, y, scale, cols) = jacobian(&params)?;
-        let after = rss(&m0, &y, scale);
-        if before - after < 1e-6 * before {
-            break;
-        }
-    }
+            Ok((params, (m0, y, scale, cols)))
+        };
+    let (params, (m0, y, scale, cols)) = polish(at(&u), hubs)?;
     let n = m0.len();
     let rms_ue = (rss(&m0, &y, scale) / n as f64).sqrt();
 
@@ -773,31 +868,53 @@ fn fit_beam<const N: usize>(
     // The model's error as the fit's sensitivity to the hub's smoothing: one Gauss-Newton
     // step from the result on the strain of the beam driven by each other hub (the
     // Jacobian the same: the shift is small where it matters, the noise's size).
-    let (mut shift, mut ln_ei_shift) = ([0.0f64; 5], 0.0f64);
-    for alt in alt_hubs {
+    // Each step's coefficients by slot, and ln EI's (slot 0 plus slot 4).
+    let step_on = |hub: &[HubMotion]| -> Result<([f64; 5], f64), CalibrateError> {
         let (m_alt, _) =
-            strains_on(&params, alt).ok_or(CalibrateError::Breakdown { step: "beam" })?;
+            strains_on(&params, hub).ok_or(CalibrateError::Breakdown { step: "beam" })?;
         let mut normal = Normal::new(k);
         for i in 0..n {
             let x: Vec<f64> = cols.iter().map(|c| c[i]).collect();
             normal.add(&x, y[i] - scale * m_alt[i]);
         }
-        match normal.solve() {
+        Ok(match normal.solve() {
             Some(f) => {
+                let mut by_slot = [0.0; 5];
                 for (i, d) in f.coef.iter().enumerate() {
-                    shift[slots[i]] = shift[slots[i]].max(d.abs());
+                    by_slot[slots[i]] = *d;
                 }
-                let at = |slot: usize| {
-                    slots
-                        .iter()
-                        .position(|&s| s == slot)
-                        .map_or(0.0, |i| f.coef[i])
-                };
-                ln_ei_shift = ln_ei_shift.max((at(0) + at(4)).abs());
+                (by_slot, by_slot[0] + by_slot[4])
             }
-            None => shift = [f64::INFINITY; 5],
+            None => ([f64::INFINITY; 5], f64::INFINITY),
+        })
+    };
+    let (mut shift, mut ln_ei_shift) = ([0.0f64; 5], 0.0f64);
+    for alt in alt_hubs {
+        let (d, ln_ei) = step_on(alt)?;
+        for (s, d) in shift.iter_mut().zip(d) {
+            *s = s.max(d.abs());
         }
+        ln_ei_shift = ln_ei_shift.max(ln_ei.abs());
     }
+    // On the re-quantised angles the fit is polished again from the result (one step
+    // from the same Jacobian saw about half the shift: the encoder's error moves EI and
+    // the damping together), and the shifts are taken as an RMS.
+    let (mut encoder, mut ln_ei_encoder) = ([0.0f64; 5], 0.0f64);
+    for hub in enc_hubs {
+        let (q, (_, _, q_scale, _)) = polish(params, hub)?;
+        let d = [
+            (q.ei_nm2 / q.density_kg_m3).ln() - (params.ei_nm2 / params.density_kg_m3).ln(),
+            (q.damping_ratio / params.damping_ratio).ln(),
+            q.root_gauge_m - params.root_gauge_m,
+            q_scale - scale,
+            (q.density_kg_m3 / params.density_kg_m3).ln(),
+        ];
+        for (s, d) in encoder.iter_mut().zip(d) {
+            *s += d * d / enc_hubs.len() as f64;
+        }
+        ln_ei_encoder += (q.ei_nm2 / params.ei_nm2).ln().powi(2) / enc_hubs.len() as f64;
+    }
+    let (encoder, ln_ei_encoder) = (encoder.map(f64::sqrt), ln_ei_encoder.sqrt());
     Ok(BeamFit {
         params,
         gauge_scale: scale,
@@ -807,6 +924,8 @@ fn fit_beam<const N: usize>(
         ln_ei_std_err,
         shift,
         ln_ei_shift,
+        encoder,
+        ln_ei_encoder,
     })
 }
 

@@ -598,21 +598,25 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
     assert!(rel(found.ei_nm2, truth.ei_nm2) < 0.05, "{found:?}");
     assert!(rel(found.jm_kgm2, truth.jm_kgm2) < 0.1, "{found:?}");
     assert!(rel(sensors.torque_scale, 1.05) < 0.02, "{sensors:?}");
-    // The level's intervals and the hub's hold the truth, for this and other draws of the
-    // torque's noise. Not every interval does here: EI's is 2.3 sigma off and the
-    // damping's 7.2 in every draw (the strain carries no noise in these logs, so step 1's
-    // residual is the model's error, and the loaded beam's is not the hub's smoothing;
-    // README, "Where calibration still fails").
+    // Every interval holds the truth, for this and other draws of the torque's noise.
+    // (Before the prescribed hub was interpolated between samples, the damping came out
+    // 7 % low at 7 of its sigmas here: the hub reached the loaded beam half a sample late.)
     let covers = |report: &beam_tools::split::SplitReport, seed: u64| {
-        for (name, truth) in [
-            ("density_kg_m3", truth.density_kg_m3),
-            ("torque_scale", 1.05),
-            ("coulomb_nm", truth.coulomb_nm),
-            ("jm_kgm2", truth.jm_kgm2),
-        ] {
-            let u = report.uncertainty.iter().find(|u| u.name == name).unwrap();
+        for u in &report.uncertainty {
+            let truth = match u.name {
+                "density_kg_m3" => truth.density_kg_m3,
+                "ei_nm2" => truth.ei_nm2,
+                "jm_kgm2" => truth.jm_kgm2,
+                "viscous_nms" => truth.viscous_nms,
+                "coulomb_nm" => truth.coulomb_nm,
+                "damping_ratio" => truth.damping_ratio,
+                "torque_scale" => 1.05,
+                "gauge_scale" => 1.0,
+                other => panic!("an interval for {other}, which this test does not know"),
+            };
             let z = (u.value - truth).abs() / u.std_err;
-            assert!(z < 2.0, "noise draw {seed}: {name}: {z:.2} sigma");
+            eprintln!("noise draw {seed}: {}: {z:.2} sigma", u.name);
+            assert!(z < 2.0, "noise draw {seed}: {}: {z:.2} sigma", u.name);
         }
     };
     covers(&report, 12345);

@@ -262,7 +262,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                 .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
                 .collect();
             let how = if split.is_some() {
-                format!("one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over {smoothing})")
+                format!("one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over {smoothing}, and from quantising its angle again at other phases of the encoder's step)")
             } else {
                 "one-sigma (noise only, near the result)".into()
             };
@@ -283,6 +283,14 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                 w.name,
                 w.shift,
                 w.shift / w.noise
+            );
+        }
+        if w.encoder > beam_tools::split::WINDOW_WARNING * w.noise {
+            println!(
+                "  warning: {} moves {:.1e} RMS when the logged angle is quantised again at other phases of its encoder's step, {:.0} times its noise: the encoder's resolution limits it on these logs more than their noise (its interval counts the shift)",
+                w.name,
+                w.encoder,
+                w.encoder / w.noise
             );
         }
     }
