@@ -78,9 +78,12 @@ fn hub_fit(log: &Log, half: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     (level, omega, alpha)
 }
 
-/// The encoder's step in a logged angle, rad: the smallest gap between distinct angles, when
-/// every angle lies on that grid (within 1 % of a step). `None` for an angle that is not
-/// quantised, or takes fewer than three values.
+/// The encoder's step in a logged angle, rad: the span of the distinct angles over the
+/// number of steps between them (each gap between neighbours counted in units of the
+/// smallest), when every angle lies on that grid within a tenth of a step (an angle printed
+/// in rounded decimals, such as 16384 counts a turn logged in degrees to 0.001, is off its
+/// grid by up to a few percent of a step). `None` for an angle that is not quantised, or
+/// takes fewer than three values.
 pub fn encoder_step(theta: &[f64]) -> Option<f64> {
     let mut levels: Vec<f64> = theta.iter().copied().filter(|t| t.is_finite()).collect();
     levels.sort_by(f64::total_cmp);
@@ -88,13 +91,17 @@ pub fn encoder_step(theta: &[f64]) -> Option<f64> {
     if levels.len() < 3 {
         return None;
     }
-    let q = levels
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(f64::INFINITY, f64::min);
-    let on_grid = theta.iter().all(|t| {
-        let n = (t - levels[0]) / q;
-        (n - n.round()).abs() < 0.01
+    let gaps: Vec<f64> = levels.windows(2).map(|w| w[1] - w[0]).collect();
+    let smallest = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+    if !(smallest.is_finite() && smallest > 0.0) {
+        return None;
+    }
+    let steps: f64 = gaps.iter().map(|g| (g / smallest).round()).sum();
+    let (origin, span) = (levels[0], levels[levels.len() - 1] - levels[0]);
+    let q = span / steps;
+    let on_grid = levels.iter().all(|l| {
+        let n = (l - origin) / q;
+        (n - n.round()).abs() < 0.1
     });
     (q.is_finite() && q > 0.0 && on_grid).then_some(q)
 }
@@ -552,6 +559,15 @@ mod tests {
         assert!((found / q - 1.0).abs() < 1e-9, "{found} against {q}");
         assert_eq!(encoder_step(&slew_log(None).theta), None);
         assert_eq!(encoder_step(&[0.0, q, 0.0]), None);
+        // Logged in degrees to three decimals (as another rig's CSV might be), then read
+        // back in radians: off the grid by up to 2.3 % of a step, and still found.
+        let printed: Vec<f64> = slew_log(Some(q))
+            .theta
+            .iter()
+            .map(|t| (t.to_degrees() * 1e3).round() / 1e3 * std::f64::consts::PI / 180.0)
+            .collect();
+        let found = encoder_step(&printed).unwrap();
+        assert!((found / q - 1.0).abs() < 1e-3, "{found} against {q}");
     }
 
     #[test]

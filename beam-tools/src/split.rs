@@ -120,6 +120,9 @@ pub struct SplitReport {
     /// How far the torque balance's results move with the prescribed hub smoothed
     /// differently (counted in `uncertainty`).
     pub window_shift: Vec<WindowShift>,
+    /// Each log's encoder step found in its angle, rad (`None`: not on a grid, so no
+    /// encoder term from it).
+    pub encoder_step_rad: Vec<Option<f64>>,
 }
 
 /// The prescribed hub's half-width is multiplied by these to see how much the results
@@ -606,6 +609,7 @@ pub fn calibrate_split<const N: usize>(
             uncertainty,
             tradeoffs,
             window_shift,
+            encoder_step_rad: steps,
         },
     ))
 }

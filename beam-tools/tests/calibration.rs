@@ -396,6 +396,10 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     let (tm, fm) = (model(truth), model(found));
     let rel = |a: f64, b: f64| (a / b - 1.0).abs();
     eprintln!("{found:?}\n{report:?}");
+    // The simulated drive's encoder (a 4096-line encoder in x4), found in the logged angle.
+    let count = model_core::measure::EncoderSpec::DEFAULT.rad_per_count();
+    assert_eq!(report.encoder_step_rad.len(), 1);
+    assert!(rel(report.encoder_step_rad[0].unwrap(), count) < 1e-6, "{report:?}");
     assert!(rel(fm.clamped_hz[0], tm.clamped_hz[0]) < 0.01);
     assert!(rel(found.ei_nm2, truth.ei_nm2) < 0.05);
     assert!(rel(sensors.torque_scale, 1.05) < 0.02, "{sensors:?}");

@@ -227,6 +227,21 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             "  split, beam (hub prescribed): root strain RMS error {:.2} ue, gauge scale {:.4}",
             s.beam_rms_strain_err_ue, s.sensors.gauge_scale
         );
+        let steps: Vec<String> = s
+            .encoder_step_rad
+            .iter()
+            .map(|q| match q {
+                Some(q) => format!(
+                    "{q:.3e} rad ({:.0} counts a turn)",
+                    std::f64::consts::TAU / q
+                ),
+                None => "none (the angle is not on a grid)".into(),
+            })
+            .collect();
+        println!(
+            "  split, encoder step in each log's angle: {}",
+            steps.join(", ")
+        );
         println!(
             "  split, torque balance over {} moving samples: RMS error {:.2e} of {:.2e} N m; {}; {}",
             s.balance_samples,
