@@ -165,6 +165,18 @@ impl HubMotion {
         let (omega, alpha) = hub_rates(log, half);
         Self { omega, alpha }
     }
+
+    /// The RMS difference of the acceleration from `other`'s, rad/s^2.
+    pub fn alpha_rms_diff(&self, other: &HubMotion) -> f64 {
+        let n = self.alpha.len().max(1) as f64;
+        let ss: f64 = self
+            .alpha
+            .iter()
+            .zip(&other.alpha)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum();
+        (ss / n).sqrt()
+    }
 }
 
 /// The beam driven by a prescribed hub, sample by sample.
@@ -199,16 +211,167 @@ pub fn prescribed<const N: usize>(
     log: &Log,
     hub: &HubMotion,
 ) -> Option<Prescribed> {
+    prescribed_observed::<N>(params, log, hub, None)
+}
+
+/// How [`prescribed_observed`] corrects the beam's state with the logged root strain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StrainObserver {
+    /// The gauge's scale (logged strain over the model's).
+    pub gauge_scale: f64,
+    /// The prescribed hub's acceleration error, RMS, rad/s^2 (the process noise).
+    pub alpha_err: f64,
+    /// The gauge's noise and the model's strain error, RMS (the measurement noise).
+    pub strain_err: f64,
+}
+
+/// The beam's modal state `(q, q')` one sample of `dt` on: RK4 in four sub-steps, with the
+/// hub's rate and acceleration at each stage from `hub(x)`, `x` the fraction of the sample.
+fn sample_step<const N: usize>(
+    plant: &Plant<N>,
+    mut q: [f64; N],
+    mut qd: [f64; N],
+    dt: f64,
+    hub: impl Fn(f64) -> (f64, f64),
+) -> ([f64; N], [f64; N]) {
+    let h = dt / 4.0;
+    let add = |x: &[f64; N], d: &[f64; N], s: f64| -> [f64; N] {
+        core::array::from_fn(|i| x[i] + s * d[i])
+    };
+    for j in 0..4 {
+        let f = |q: &[f64; N], qd: &[f64; N], stage: f64| {
+            let (w, a) = hub((j as f64 + stage) / 4.0);
+            plant.flex_acceleration(q, qd, w, a)
+        };
+        let (k1q, k1v) = (qd, f(&q, &qd, 0.0));
+        let (q2, v2) = (add(&q, &k1q, h / 2.0), add(&qd, &k1v, h / 2.0));
+        let (k2q, k2v) = (v2, f(&q2, &v2, 0.5));
+        let (q3, v3) = (add(&q, &k2q, h / 2.0), add(&qd, &k2v, h / 2.0));
+        let (k3q, k3v) = (v3, f(&q3, &v3, 0.5));
+        let (q4, v4) = (add(&q, &k3q, h), add(&qd, &k3v, h));
+        let (k4q, k4v) = (v4, f(&q4, &v4, 1.0));
+        q = core::array::from_fn(|i| {
+            q[i] + h / 6.0 * (k1q[i] + 2.0 * k2q[i] + 2.0 * k3q[i] + k4q[i])
+        });
+        qd = core::array::from_fn(|i| {
+            qd[i] + h / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i])
+        });
+    }
+    (q, qd)
+}
+
+/// The steady-state Kalman gain of the beam's modal state `[q, q']` (hub at rest, at the
+/// log's sample period `dt`) for the root strain, with the hub's acceleration error as
+/// the process noise. `None` if the iteration does not settle.
+fn strain_kalman_gain<const N: usize>(
+    plant: &Plant<N>,
+    dt: f64,
+    obs: &StrainObserver,
+) -> Option<Vec<f64>> {
+    let n = 2 * N;
+    // One sample of the linear beam (RK4, four sub-steps) from `x` under a held hub
+    // acceleration `a`.
+    let advance = |x: &[f64], a: f64| -> Vec<f64> {
+        let q: [f64; N] = core::array::from_fn(|i| x[i]);
+        let v: [f64; N] = core::array::from_fn(|i| x[N + i]);
+        let (q, v) = sample_step(plant, q, v, dt, |_| (0.0, a));
+        q.iter().chain(v.iter()).copied().collect()
+    };
+    // A: columns are the unit states advanced; B: the response to a unit acceleration.
+    let mut a = vec![vec![0.0; n]; n];
+    for j in 0..n {
+        let mut e = vec![0.0; n];
+        e[j] = 1.0;
+        let col = advance(&e, 0.0);
+        for i in 0..n {
+            a[i][j] = col[i];
+        }
+    }
+    let b = advance(&vec![0.0; n], 1.0);
+    let hrow: Vec<f64> = (0..n)
+        .map(|i| {
+            if i < N {
+                obs.gauge_scale * plant.model.root_strain_coef[i]
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let r = obs.strain_err.max(1e-12).powi(2);
+    let qn = obs.alpha_err.powi(2);
+    let mut p = vec![vec![0.0; n]; n];
+    let mut gain = vec![0.0; n];
+    for _ in 0..20_000 {
+        // Predict: P = A P A' + B B' qn.
+        let ap: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| (0..n).map(|k| a[i][k] * p[k][j]).sum())
+                    .collect()
+            })
+            .collect();
+        let mut pp = vec![vec![0.0; n]; n];
+        for i in 0..n {
+            for j in 0..n {
+                pp[i][j] = (0..n).map(|k| ap[i][k] * a[j][k]).sum::<f64>() + b[i] * b[j] * qn;
+            }
+        }
+        // Update with the strain.
+        let ph: Vec<f64> = (0..n)
+            .map(|i| (0..n).map(|j| pp[i][j] * hrow[j]).sum())
+            .collect();
+        let s: f64 = (0..n).map(|i| hrow[i] * ph[i]).sum::<f64>() + r;
+        let new_gain: Vec<f64> = ph.iter().map(|x| x / s).collect();
+        for i in 0..n {
+            for j in 0..n {
+                p[i][j] = pp[i][j] - new_gain[i] * ph[j];
+            }
+        }
+        let change = new_gain
+            .iter()
+            .zip(&gain)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        let size = new_gain.iter().map(|x| x.abs()).fold(0.0, f64::max);
+        gain = new_gain;
+        if change <= 1e-10 * size.max(1e-300) {
+            return gain.iter().all(|g| g.is_finite()).then_some(gain);
+        }
+    }
+    None
+}
+
+/// [`prescribed`], with the beam's state corrected at each sample by the logged root strain
+/// through a steady-state Kalman gain when `observer` is given: the beam's vibration that
+/// the prescribed hub does not carry (a hub chattering within an encoder count) is then in
+/// the state, and in the torque it takes from the hub.
+pub fn prescribed_observed<const N: usize>(
+    params: &BeamParams,
+    log: &Log,
+    hub: &HubMotion,
+    observer: Option<StrainObserver>,
+) -> Option<Prescribed> {
     let model = ModalModel::<N>::try_build(&Beam::try_build(*params).ok()?).ok()?;
     let plant = Plant::new(model);
     let dt = log.t[1] - log.t[0];
+    // A gain that does not settle leaves the beam uncorrected.
+    let gain = observer
+        .as_ref()
+        .and_then(|obs| strain_kalman_gain(&plant, dt, obs));
     let (omega, alpha) = (&hub.omega, &hub.alpha);
     let mut torque = Vec::with_capacity(log.t.len());
     let mut mid = Vec::with_capacity(log.t.len());
     let (mut q, mut qd) = ([0.0f64; N], [0.0f64; N]);
     let mut eps = Vec::with_capacity(log.t.len());
-    let h = dt / 4.0;
     for k in 0..log.t.len() {
+        if let (Some(gain), Some(obs)) = (&gain, &observer) {
+            let innovation = log.root_strain[k]
+                - obs.gauge_scale * model_core::linalg::dot(&plant.model.root_strain_coef, &q);
+            for i in 0..N {
+                q[i] += gain[i] * innovation;
+                qd[i] += gain[N + i] * innovation;
+            }
+        }
         eps.push(model_core::linalg::dot(&plant.model.root_strain_coef, &q));
         mid.push(model_core::linalg::dot(&plant.model.mid_strain_coef, &q));
         let (w, a) = (omega[k], alpha[k]);
@@ -227,28 +390,7 @@ pub fn prescribed<const N: usize>(
         } else {
             (w, a)
         };
-        for j in 0..4 {
-            let f = |q: &[f64; N], qd: &[f64; N], stage: f64| {
-                let x = (j as f64 + stage) / 4.0;
-                plant.flex_acceleration(q, qd, w + x * (w1 - w), a + x * (a1 - a))
-            };
-            let add = |x: &[f64; N], d: &[f64; N], s: f64| -> [f64; N] {
-                core::array::from_fn(|i| x[i] + s * d[i])
-            };
-            let (k1q, k1v) = (qd, f(&q, &qd, 0.0));
-            let (q2, v2) = (add(&q, &k1q, h / 2.0), add(&qd, &k1v, h / 2.0));
-            let (k2q, k2v) = (v2, f(&q2, &v2, 0.5));
-            let (q3, v3) = (add(&q, &k2q, h / 2.0), add(&qd, &k2v, h / 2.0));
-            let (k3q, k3v) = (v3, f(&q3, &v3, 0.5));
-            let (q4, v4) = (add(&q, &k3q, h), add(&qd, &k3v, h));
-            let (k4q, k4v) = (v4, f(&q4, &v4, 1.0));
-            q = core::array::from_fn(|i| {
-                q[i] + h / 6.0 * (k1q[i] + 2.0 * k2q[i] + 2.0 * k3q[i] + k4q[i])
-            });
-            qd = core::array::from_fn(|i| {
-                qd[i] + h / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i])
-            });
-        }
+        (q, qd) = sample_step(&plant, q, qd, dt, |x| (w + x * (w1 - w), a + x * (a1 - a)));
         if !q.iter().chain(qd.iter()).all(|x| x.is_finite()) {
             return None;
         }
@@ -550,6 +692,53 @@ mod tests {
             theta,
             t,
         }
+    }
+
+    #[test]
+    fn following_the_strain_puts_back_the_vibration_the_prescribed_hub_missed() {
+        // The real hub chatters at 60 Hz for its first 0.1 s, which excites the beam; the
+        // prescribed hub (the logged angle without the chatter) does not. After the chatter
+        // the two hubs are the same, so what differs is the beam's state: open, the model
+        // has none of that vibration; corrected by the logged strain, it has.
+        let params = BeamParams::aluminium();
+        let clean = slew_log(None);
+        let mut chattering = clean.clone();
+        for (th, t) in chattering.theta.iter_mut().zip(&clean.t) {
+            if *t < 0.1 {
+                *th += 2e-3 * (2.0 * std::f64::consts::PI * 60.0 * t).sin();
+            }
+        }
+        let real_hub = HubMotion::of(&chattering, 0.004);
+        let truth = prescribed::<3>(&params, &chattering, &real_hub).unwrap();
+        let mut log = clean.clone();
+        log.root_strain = truth.root_strain.clone();
+        let hub = HubMotion::of(&clean, 0.004);
+        let alpha_err = hub.alpha_rms_diff(&real_hub);
+        let open = prescribed::<3>(&params, &log, &hub).unwrap();
+        let observer = StrainObserver {
+            gauge_scale: 1.0,
+            alpha_err,
+            strain_err: 1e-7,
+        };
+        let followed = prescribed_observed::<3>(&params, &log, &hub, Some(observer)).unwrap();
+        // After the chatter and a settling time of the observer.
+        let after: Vec<usize> = (0..clean.t.len()).filter(|&k| clean.t[k] > 0.2).collect();
+        let rms = |a: &[f64], b: &[f64]| {
+            (after.iter().map(|&k| (a[k] - b[k]).powi(2)).sum::<f64>() / after.len() as f64).sqrt()
+        };
+        let size = rms(&truth.flex_torque_nm, &vec![0.0; clean.t.len()]);
+        let (e_open, e_followed) = (
+            rms(&open.flex_torque_nm, &truth.flex_torque_nm),
+            rms(&followed.flex_torque_nm, &truth.flex_torque_nm),
+        );
+        assert!(
+            e_open > 0.05 * size,
+            "the chatter left too little: {e_open} of {size}"
+        );
+        assert!(
+            e_followed < 0.2 * e_open,
+            "torque after the chatter: {e_followed} against {e_open} open (of {size})"
+        );
     }
 
     #[test]

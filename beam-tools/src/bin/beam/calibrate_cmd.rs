@@ -291,6 +291,13 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         }
         None => println!("  warning: a parameter has no effect on these logs; no uncertainties"),
     }
+    if let Some(s) = split.as_ref().filter(|s| s.replay_drifts()) {
+        println!(
+            "  warning: the found model, driven open loop by the logged torque, drifts {:.1} deg RMS from the logged angle, {:.0} % of the move: it does not explain the torque; check the starting parameters (each log's tip mass, the gauge's position) against the rig",
+            s.replay_rms_theta_err_rad.to_degrees(),
+            100.0 * s.replay_rms_theta_err_rad / s.move_span_rad
+        );
+    }
     for w in split.iter().flat_map(|s| &s.window_shift) {
         if w.shift > beam_tools::split::WINDOW_WARNING * w.noise {
             println!(
