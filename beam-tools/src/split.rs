@@ -135,8 +135,9 @@ pub struct SplitReport {
 pub const WINDOW_FACTORS: [f64; 2] = [0.5, core::f64::consts::SQRT_2];
 
 /// `beam calibrate` warns when a result moves by more than this many times its noise with
-/// the hub smoothed differently. (On the other rig's forward log the largest ratio is 0.7,
-/// Jm's; backwards, Jm's is 36.)
+/// the hub smoothed differently or its angle quantised again. (On the drive's own log the
+/// damping's and the gauge scale's exceed it; before the balance's beam followed the strain,
+/// the other rig's backward log moved Jm by 21 times its noise.)
 pub const WINDOW_WARNING: f64 = 2.0;
 
 /// `beam calibrate` warns when the open-loop replay drifts by more than this fraction of the
@@ -157,11 +158,10 @@ impl SplitReport {
 
 /// How much a result depends on the prescribed hub's smoothing: a model error (the beam
 /// driven by a hub smoother than the real one), which neither the Gauss-Newton intervals
-/// nor the bootstrap see. Step 1's shift is one Gauss-Newton step on the strain of the
-/// beam driven by each other hub; step 2's, the balance refitted with R from it. On the
-/// other rig's forward log halving the half-width moves Jm by 0.7 of its noise; on the
-/// same move backwards, where the hub chatters at an encoder count's edge, by 36 times it
-/// (Jm 4.9e-3 becomes 3.9e-2; the truth is 1e-2).
+/// nor the bootstrap see. Step 1's shift is its fit polished again (Levenberg-Marquardt
+/// from the result) on the strain of the beam driven by each other hub; step 2's, the
+/// balance refitted with R from it. The encoder's part is the RMS shift with the angle
+/// quantised again (README, "beam calibrate", for the figures).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct WindowShift {
     /// The parameter.
@@ -306,15 +306,13 @@ pub fn calibrate_split<const N: usize>(
     // correction that log gave Jm half the truth and the torque scale 1.20 (truth 1.05).
     // The hub's acceleration error, the process noise, is taken as how far it moves with
     // the half-width halved; the strain's, as step 1's residual.
-    let observers: Vec<Option<StrainObserver>> = hubs
+    let observers: Vec<StrainObserver> = hubs
         .iter()
         .zip(&alt_hubs[0])
-        .map(|(h, a)| {
-            Some(StrainObserver {
-                gauge_scale: beam.gauge_scale,
-                alpha_err: h.alpha_rms_diff(a),
-                strain_err: beam.rms_ue * 1e-6,
-            })
+        .map(|(h, a)| StrainObserver {
+            gauge_scale: beam.gauge_scale,
+            alpha_err: h.alpha_rms_diff(a),
+            strain_err: beam.rms_ue * 1e-6,
         })
         .collect();
 
@@ -913,54 +911,40 @@ fn fit_beam<const N: usize>(
         }
         None => std_err = [f64::INFINITY; 5],
     }
-    // The model's error as the fit's sensitivity to the hub's smoothing: one Gauss-Newton
-    // step from the result on the strain of the beam driven by each other hub (the
-    // Jacobian the same: the shift is small where it matters, the noise's size).
-    // Each step's coefficients by slot, and ln EI's (slot 0 plus slot 4).
-    let step_on = |hub: &[HubMotion]| -> Result<([f64; 5], f64), CalibrateError> {
-        let (m_alt, _) =
-            strains_on(&params, hub).ok_or(CalibrateError::Breakdown { step: "beam" })?;
-        let mut normal = Normal::new(k);
-        for i in 0..n {
-            let x: Vec<f64> = cols.iter().map(|c| c[i]).collect();
-            normal.add(&x, y[i] - scale * m_alt[i]);
-        }
-        Ok(match normal.solve() {
-            Some(f) => {
-                let mut by_slot = [0.0; 5];
-                for (i, d) in f.coef.iter().enumerate() {
-                    by_slot[slots[i]] = *d;
-                }
-                (by_slot, by_slot[0] + by_slot[4])
-            }
-            None => ([f64::INFINITY; 5], f64::INFINITY),
-        })
+    // The model's error as the fit's sensitivity to the hub: the fit polished again from
+    // the result on the strain of the beam driven by another hub (one Gauss-Newton step
+    // from the same Jacobian saw about half of the encoder's shift: it moves EI and the
+    // damping together). Each shift by slot, and ln EI's.
+    let shift_on = |hub: &[HubMotion]| -> Result<([f64; 5], f64), CalibrateError> {
+        let (q, (_, _, q_scale, _)) = polish(params, hub)?;
+        Ok((
+            [
+                (q.ei_nm2 / q.density_kg_m3).ln() - (params.ei_nm2 / params.density_kg_m3).ln(),
+                (q.damping_ratio / params.damping_ratio).ln(),
+                q.root_gauge_m - params.root_gauge_m,
+                q_scale - scale,
+                (q.density_kg_m3 / params.density_kg_m3).ln(),
+            ],
+            (q.ei_nm2 / params.ei_nm2).ln(),
+        ))
     };
+    // The hub smoothed differently: the larger shift.
     let (mut shift, mut ln_ei_shift) = ([0.0f64; 5], 0.0f64);
     for alt in alt_hubs {
-        let (d, ln_ei) = step_on(alt)?;
+        let (d, ln_ei) = shift_on(alt)?;
         for (s, d) in shift.iter_mut().zip(d) {
             *s = s.max(d.abs());
         }
         ln_ei_shift = ln_ei_shift.max(ln_ei.abs());
     }
-    // On the re-quantised angles the fit is polished again from the result (one step
-    // from the same Jacobian saw about half the shift: the encoder's error moves EI and
-    // the damping together), and the shifts are taken as an RMS.
+    // The angle re-quantised: the RMS shift.
     let (mut encoder, mut ln_ei_encoder) = ([0.0f64; 5], 0.0f64);
     for hub in enc_hubs {
-        let (q, (_, _, q_scale, _)) = polish(params, hub)?;
-        let d = [
-            (q.ei_nm2 / q.density_kg_m3).ln() - (params.ei_nm2 / params.density_kg_m3).ln(),
-            (q.damping_ratio / params.damping_ratio).ln(),
-            q.root_gauge_m - params.root_gauge_m,
-            q_scale - scale,
-            (q.density_kg_m3 / params.density_kg_m3).ln(),
-        ];
+        let (d, ln_ei) = shift_on(hub)?;
         for (s, d) in encoder.iter_mut().zip(d) {
             *s += d * d / enc_hubs.len() as f64;
         }
-        ln_ei_encoder += (q.ei_nm2 / params.ei_nm2).ln().powi(2) / enc_hubs.len() as f64;
+        ln_ei_encoder += ln_ei * ln_ei / enc_hubs.len() as f64;
     }
     let (encoder, ln_ei_encoder) = (encoder.map(f64::sqrt), ln_ei_encoder.sqrt());
     Ok(BeamFit {
@@ -1019,12 +1003,12 @@ fn balance_rows<const N: usize>(
     hubs: &[HubMotion],
     rates: &[HubMotion],
     p: &BeamParams,
-    observers: &[Option<StrainObserver>],
+    observers: &[StrainObserver],
 ) -> Result<(Vec<Row>, bool), CalibrateError> {
     let mut rows = vec![];
     let (mut up, mut down) = (0usize, 0usize);
     for (((e, hub), rate), obs) in exps.iter().zip(hubs).zip(rates).zip(observers) {
-        let pr = prescribed_observed::<N>(&e.params(p), &e.log, hub, *obs)
+        let pr = prescribed_observed::<N>(&e.params(p), &e.log, hub, Some(*obs))
             .ok_or(CalibrateError::Breakdown { step: "rigid" })?;
         let dt = e.log.t[1] - e.log.t[0];
         let w = ((BALANCE_INTERVAL_S / dt).round() as usize).max(2);
