@@ -272,7 +272,7 @@ fn optimize_writes_a_valid_table_row() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
-    let rows = gain_table::load(&table).unwrap();
+    let rows = gain_table::load(&table).unwrap().rows;
     assert_eq!(
         rows.iter().map(|r| r.payload_kg).collect::<Vec<_>>(),
         [0.0, 0.02],
@@ -675,13 +675,15 @@ fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
     let moves: Vec<&str> = rows.iter().map(|r| r[at("move_deg")]).collect();
     assert_eq!(moves[..4], ["15", "90", "15", "90"]);
     // A table without the controller's rows is refused, naming the file.
-    let only_pd_ff: String = std::fs::read_to_string(shipped)
-        .unwrap()
-        .split("[[row]]")
-        .skip(1)
-        .filter(|r| r.contains("controller = \"pd-ff\""))
-        .map(|r| format!("[[row]]{r}"))
-        .collect();
+    let shipped_text = std::fs::read_to_string(shipped).unwrap();
+    let mut parts = shipped_text.split("[[row]]");
+    // The header and the [plant], then only the pd-ff rows.
+    let head = parts.next().unwrap().to_string();
+    let only_pd_ff: String = head
+        + &parts
+            .filter(|r| r.contains("controller = \"pd-ff\""))
+            .map(|r| format!("[[row]]{r}"))
+            .collect::<String>();
     let t = dir.join("pd-ff.toml");
     std::fs::write(&t, only_pd_ff).unwrap();
     let out = beam(

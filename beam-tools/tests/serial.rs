@@ -5,7 +5,7 @@
 use beam_wire::command::Record;
 use firmware::link::Link;
 use model_core::commands::Commander;
-use model_core::{BeamParams, Controller, ControllerSettings, LawKind, RawMeasurement, Spline};
+use model_core::{Controller, ControllerSettings, LawKind, RawMeasurement, Spline};
 use serialport::{SerialPort, TTYPort};
 use std::io::{Read, Write};
 use std::process::Command;
@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 /// A drive on `port`: bytes to the link, requests to the handler, a tick every millisecond
 /// (the hub held still), records while streaming; until `stop`.
 fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>) {
-    let (mut commander, law) = Commander::<3>::try_new(
-        BeamParams::aluminium(),
+    let (mut commander, law) = Commander::try_new(
+        &model_core::gains::PLANT,
         model_core::gains::GAIN_TABLE,
         LawKind::PdFf,
         0.0,

@@ -90,7 +90,7 @@ pub struct Board {
     /// See `link_tx`.
     pub link_rx: Rx1,
     /// The command handler, with the compiled-in law and payload.
-    pub commander: model_core::commands::Commander<3>,
+    pub commander: model_core::commands::Commander,
 }
 
 /// Why the board did not come up. The amplifier is never enabled in any of these cases.
@@ -196,8 +196,8 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         .map_err(|_| BringUpError::Link)?;
     let (link_tx, mut link_rx) = link.split();
     link_rx.listen();
-    let (commander, _) = model_core::commands::Commander::<3>::try_new(
-        model_core::BeamParams::aluminium(),
+    let (commander, _) = model_core::commands::Commander::try_new(
+        &model_core::gains::PLANT,
         model_core::gains::GAIN_TABLE,
         config::CONTROLLER,
         config::PAYLOAD_KG,

@@ -1,15 +1,17 @@
 //! The drive's compiled-in configuration: which beam, which payload, which gains, which moves.
 //!
 //! Built once at start-up, outside the loop, and validated there: if anything here is wrong
-//! the drive never enables the amplifier. The gains come from the table compiled from
-//! `gains.toml` (model-core's `GAIN_TABLE`), scheduled on the payload.
+//! the drive never enables the amplifier. The plant and the gains come from the table
+//! compiled from `gains.toml` (or the file `BEAM_GAIN_TABLE` names): model-core's `PLANT`,
+//! whose modal model the build computed on the host, and `GAIN_TABLE`, scheduled on the
+//! payload. Nothing of the model is computed here.
 
 use model_core::commands::{CommandedController, Commander, SetupError};
-use model_core::gains::{schedule_shaper, GAIN_TABLE};
+use model_core::gains::{schedule_shaper, GAIN_TABLE, PLANT};
 use model_core::shaper::shaped_quintic;
 use model_core::{
-    Beam, BeamParams, ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind,
-    ModalModel, ModelError, ParamError, ShaperError, Spline, SplineError, Timing,
+    ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind, ParamError, ShaperError,
+    Spline, SplineError, Timing,
 };
 
 /// Knots per move: room for any planned move, shaped (the button's moves, a shaped quintic,
@@ -53,10 +55,8 @@ const _: () = assert!(SYSCLK_HZ % PWM_HZ == 0);
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub enum BuildError {
-    /// The beam parameters.
-    Beam(ParamError),
-    /// The modal model.
-    Model(ModelError),
+    /// The payload is outside the compiled plant's range.
+    Payload,
     /// The gain table has no row for the controller.
     NoGains,
     /// The gains.
@@ -76,42 +76,36 @@ pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
     build_controller_for(CONTROLLER, PAYLOAD_KG)
 }
 
-/// The controller for the aluminium beam (3-mode model) carrying `payload_kg`, running `kind`.
+/// The controller for the compiled plant carrying `payload_kg`, running `kind`.
 pub fn build_controller_for(
     kind: LawKind,
     payload_kg: f32,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
-    let params = BeamParams {
-        tip_mass_kg: payload_kg as f64,
-        ..BeamParams::aluminium()
-    };
-    let beam = Beam::try_build(params).map_err(BuildError::Beam)?;
-    let model = ModalModel::<3>::try_build(&beam).map_err(BuildError::Model)?;
+    let plant = PLANT.at(payload_kg as f64).ok_or(BuildError::Payload)?;
     let gains = law_for(kind, payload_kg).ok_or(BuildError::NoGains)?;
-    let law = ControlLaw::try_build(gains, &model).map_err(BuildError::Gains)?;
+    let law = ControlLaw::try_build(gains, plant).map_err(BuildError::Gains)?;
     let settings = ControllerSettings {
         theta_home_rad: SLEW_FROM_RAD,
-        torque_limit_nm: params.torque_limit_nm as f32,
+        torque_limit_nm: plant.torque_limit_nm as f32,
         ..ControllerSettings::default()
     };
     let [first, _] = sequence_for(kind, payload_kg)?;
     Controller::try_build(settings, law, first).map_err(BuildError::Config)
 }
 
-/// A commanded drive for the aluminium beam (3-mode model): its controller, idle at
-/// `home_rad` (the encoder's zero), and the handler its commands go through, running `kind`
-/// scheduled for `payload_kg`.
+/// A commanded drive for the compiled plant: its controller, idle at `home_rad` (the
+/// encoder's zero), and the handler its commands go through, running `kind` scheduled for
+/// `payload_kg`.
 pub fn build_commanded(
     kind: LawKind,
     payload_kg: f32,
     home_rad: f32,
-) -> Result<(CommandedController, Commander<3>), BuildError> {
-    let params = BeamParams::aluminium();
+) -> Result<(CommandedController, Commander), BuildError> {
     let (commander, law) =
-        Commander::<3>::try_new(params, GAIN_TABLE, kind, payload_kg).map_err(BuildError::Setup)?;
+        Commander::try_new(&PLANT, GAIN_TABLE, kind, payload_kg).map_err(BuildError::Setup)?;
     let settings = ControllerSettings {
         theta_home_rad: home_rad,
-        torque_limit_nm: params.torque_limit_nm as f32,
+        torque_limit_nm: PLANT.params.torque_limit_nm as f32,
         ..ControllerSettings::default()
     };
     // Until the first command plans a move, the controller holds a move of no length.

@@ -220,9 +220,9 @@ where
 {
     /// Carries out a command of the wire protocol through `commander` (between ticks; it
     /// takes effect at the next one). Clearing a fault also clears a driver failure.
-    pub fn handle<const N: usize>(
+    pub fn handle(
         &mut self,
-        commander: &mut model_core::commands::Commander<N>,
+        commander: &mut model_core::commands::Commander,
         request: &beam_wire::command::Request,
     ) -> beam_wire::command::Reply {
         let reply = commander.handle(&mut self.controller, request);
@@ -239,9 +239,9 @@ where
 
     /// Swaps in an action prepared outside the tick
     /// ([`Commander::prepare`](model_core::commands::Commander::prepare)), whole.
-    pub fn apply<const N: usize>(
+    pub fn apply(
         &mut self,
-        commander: &mut model_core::commands::Commander<N>,
+        commander: &mut model_core::commands::Commander,
         action: model_core::commands::Action,
     ) -> Result<beam_wire::command::Outcome, beam_wire::command::Refusal> {
         let clear = action == model_core::commands::Action::ClearFault;

@@ -54,7 +54,7 @@ mod app {
         watchdog: IndependentWatchdog,
         link_tx: Tx1,
         link_rx: Rx1,
-        commander: Commander<3>,
+        commander: Commander,
         telemetry_in: Producer<'static, Telemetry, TELEMETRY_SLOTS>,
         telemetry_out: Consumer<'static, Telemetry, TELEMETRY_SLOTS>,
     }

@@ -7,14 +7,14 @@ use beam_wire::command::{Outcome, Request};
 use beam_wire::{decode, encode, FrameReader, MAX_FRAME};
 use libfuzzer_sys::fuzz_target;
 use model_core::commands::{CommandedController, Commander};
-use model_core::{BeamParams, Controller, ControllerSettings, LawKind, RawMeasurement, Spline};
+use model_core::{Controller, ControllerSettings, LawKind, RawMeasurement, Spline};
 use std::sync::OnceLock;
 
-fn drive() -> &'static (Commander<3>, CommandedController) {
-    static DRIVE: OnceLock<(Commander<3>, CommandedController)> = OnceLock::new();
+fn drive() -> &'static (Commander, CommandedController) {
+    static DRIVE: OnceLock<(Commander, CommandedController)> = OnceLock::new();
     DRIVE.get_or_init(|| {
-        let (commander, law) = Commander::<3>::try_new(
-            BeamParams::aluminium(),
+        let (commander, law) = Commander::try_new(
+            &model_core::gains::PLANT,
             model_core::gains::GAIN_TABLE,
             LawKind::PdFf,
             0.0,

@@ -8,8 +8,21 @@
 //! duplicates, so the controller can interpolate between neighbours at run time.
 
 pub use beam_kinds::{LawKind, Preset, ShaperKind, Switching};
+use beam_model::plant::PlantPoint;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+mod plant;
+pub use plant::{PlantParts, PlantSpec, PLANT_STEP_KG};
+
+/// A whole table: the plant its gains were designed for and the rows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// The `[plant]` table.
+    pub plant: PlantSpec,
+    /// The `[[row]]`s, grouped by controller, each group sorted by payload.
+    pub rows: Vec<Row>,
+}
 
 /// Largest payload a row may describe, kg (the beam carries grams, not kilograms).
 pub const MAX_PAYLOAD_KG: f64 = 1.0;
@@ -21,10 +34,6 @@ pub struct Row {
     pub payload_kg: f64,
     /// The law (the row's `controller` key) and its gains.
     pub gains: Gains,
-    /// The preset the gains were found for.
-    pub preset: Preset,
-    /// Flexible modes of the model they were found with.
-    pub modes: u32,
     /// The cost J they achieved (for the record).
     pub cost_j: f64,
     /// The input shaper designed with the gains (`shaper = "none"` or absent: none).
@@ -59,8 +68,6 @@ impl ShaperRow {
 #[serde(deny_unknown_fields)]
 struct Common {
     payload_kg: f64,
-    preset: Preset,
-    modes: u32,
     cost_j: f64,
     #[serde(default)]
     shaper: ShaperKind,
@@ -243,8 +250,9 @@ pub struct TableError {
     pub message: String,
 }
 
-/// Parses and validates the table text; `file` names it in errors.
-pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
+/// Parses and validates the table text; `file` names it in errors. Every row's law is checked
+/// against the plant at its payload (a strain blend the plant cannot take is refused here).
+pub fn parse(text: &str, file: &str) -> Result<Table, TableError> {
     let err = |row, field, message: String| TableError {
         file: file.to_string(),
         row,
@@ -265,13 +273,29 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
             format!("line {line}: {}", e.message().trim()),
         )
     })?;
-    if let Some(key) = table.keys().find(|k| k.as_str() != "row") {
+    if let Some(key) = table
+        .keys()
+        .find(|k| !["row", "plant"].contains(&k.as_str()))
+    {
         return Err(err(
             None,
             None,
-            format!("unknown top-level key `{key}` (expected [[row]] tables)"),
+            format!("unknown top-level key `{key}` (expected [plant] and [[row]] tables)"),
         ));
     }
+    let plant = match table.get("plant") {
+        Some(v) => PlantSpec::from_value(v).map_err(|(field, m)| err(None, field, m))?,
+        None => {
+            return Err(err(
+                None,
+                None,
+                "the table has no [plant]: name the plant its gains were designed for, \
+                 `[plant]` with `modes = 3` and `preset = \"aluminium\"` or the beam's \
+                 parameters (as `beam calibrate` writes them)"
+                    .into(),
+            ))
+        }
+    };
     let mut rows = Vec::new();
     if let Some(value) = table.get("row") {
         let list = value.as_array().ok_or_else(|| {
@@ -317,8 +341,6 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
                 ("switching", sw == prev_sw),
                 ("model_terms", mt == prev_mt),
                 ("shaper", r.shaper.kind == prev.shaper.kind),
-                ("preset", r.preset == prev.preset),
-                ("modes", r.modes == prev.modes),
             ] {
                 if !same {
                     return Err(err(
@@ -330,7 +352,36 @@ pub fn parse(text: &str, file: &str) -> Result<Vec<Row>, TableError> {
             }
         }
     }
-    Ok(rows)
+    for (i, r) in rows.iter().enumerate() {
+        check_against_plant(r, &plant)
+            .map_err(|(field, message)| err(Some(i + 1), Some(field), message))?;
+    }
+    Ok(Table { plant, rows })
+}
+
+/// What a row's law needs of the plant at its payload: a strain blend within the rule the
+/// laws apply ([`PlantPoint::blend_ratio`]).
+fn check_against_plant(r: &Row, plant: &PlantSpec) -> Result<(), (&'static str, String)> {
+    let c = match &r.gains {
+        Gains::SmcStrain(g) => g.c,
+        Gains::SmcI(g) => g.c,
+        Gains::Pd(_) | Gains::PdFf(_) | Gains::Smc(_) => return Ok(()),
+    };
+    let point = plant
+        .point(r.payload_kg as f32 as f64)
+        .map_err(|(field, why)| (field.unwrap_or("payload_kg"), why))?;
+    match point.blend_ratio(c) {
+        Some(_) => Ok(()),
+        None => Err((
+            "c",
+            format!(
+                "{c}: the blend leaves 1 - c gamma = {:.3} of the hub's input gain on this \
+                 plant (at least {} is needed)",
+                1.0 - c * point.strain_coupling(),
+                PlantPoint::MIN_BLEND_RATIO
+            ),
+        )),
+    }
 }
 
 /// One `[[row]]` table: its `controller` names the law, whose gains are the keys besides the
@@ -352,10 +403,8 @@ fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)
             ))
         }
     };
-    const COMMON: [&str; 8] = [
+    const COMMON: [&str; 6] = [
         "payload_kg",
-        "preset",
-        "modes",
         "cost_j",
         "shaper",
         "shaper_hz",
@@ -375,8 +424,6 @@ fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)
     Ok(Row {
         payload_kg: c.payload_kg,
         gains,
-        preset: c.preset,
-        modes: c.modes,
         cost_j: c.cost_j,
         shaper: ShaperRow {
             kind: c.shaper,
@@ -389,9 +436,6 @@ fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)
 
 /// Checks one row's values; `Err((field, why))`.
 fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
-    if !(1..=4).contains(&r.modes) {
-        return Err(("modes", format!("{} is not 1 to 4", r.modes)));
-    }
     let mut numbers = vec![
         ("payload_kg", r.payload_kg),
         ("cost_j", r.cost_j),
@@ -473,7 +517,7 @@ fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
 }
 
 /// Reads and validates the table at `path`.
-pub fn load(path: &Path) -> Result<Vec<Row>, TableError> {
+pub fn load(path: &Path) -> Result<Table, TableError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| TableError {
         file: file.clone(),
@@ -484,23 +528,26 @@ pub fn load(path: &Path) -> Result<Vec<Row>, TableError> {
     parse(&text, &file)
 }
 
-/// The table as TOML text, rows in the order given, with a header explaining the file.
-pub fn render(rows: &[Row]) -> String {
+/// The table as TOML text, the plant first, rows in the order given, with a header
+/// explaining the file.
+pub fn render(table: &Table) -> String {
     let mut out = String::from(
         "# Gain table compiled into model-core (and so into the firmware) by model-core/build.rs.\n\
-         # One [[row]] per controller and payload; rows of a controller sorted by payload_kg.\n\
-         # The controller interpolates gains between neighbouring payloads, clamped at the ends.\n\
+         # [plant]: the beam the gains were designed for; the build computes its modal model\n\
+         # on the host and compiles it in. One [[row]] per controller and payload; rows of a\n\
+         # controller sorted by payload_kg. The drive interpolates gains between neighbouring\n\
+         # payloads and accepts payloads from 0 to the heaviest row.\n\
          # Written by `beam optimize --table`; edit by hand with care: the build validates it.\n",
     );
-    for r in rows {
+    out.push('\n');
+    out.push_str(&table.plant.render());
+    for r in &table.rows {
         out.push('\n');
         out.push_str("[[row]]\n");
         let mut t = toml::Table::new();
         t.insert("controller".into(), r.gains.kind().name().into());
         t.insert("payload_kg".into(), r.payload_kg.into());
         t.extend(r.gains.to_table());
-        t.insert("preset".into(), r.preset.name().into());
-        t.insert("modes".into(), i64::from(r.modes).into());
         t.insert("cost_j".into(), r.cost_j.into());
         if r.shaper.kind != ShaperKind::None {
             t.insert("shaper".into(), r.shaper.kind.name().into());
@@ -535,11 +582,24 @@ pub fn upsert(rows: &mut Vec<Row>, row: Row) {
     rows.insert(at, row);
 }
 
-/// Rust source defining `GAIN_TABLE: &[GainRow]`, included into model-core's `gains` module
-/// (paths are fully qualified from there, so the generated file needs no imports).
-pub fn generate_rust(rows: &[Row]) -> String {
+/// Rust source defining `PLANT: Plant` (the plant on its payload grid, computed here on the
+/// host) and `GAIN_TABLE: &[GainRow]`, included into model-core's `gains` module (paths are
+/// fully qualified from there, so the generated file needs no imports). Fails, naming the
+/// field, only for a plant whose model cannot be built (which [`parse`] refuses first).
+pub fn generate_rust(table: &Table) -> Result<String, TableError> {
+    let rows = &table.rows;
+    let plant = table
+        .plant
+        .plant(rows)
+        .map_err(|(field, message)| TableError {
+            file: String::new(),
+            row: None,
+            field,
+            message,
+        })?;
     let mut out =
         String::from("// Generated by model-core/build.rs from the gain table. Do not edit.\n");
+    out.push_str(&plant::generate_plant(&plant));
     out.push_str("/// The compiled gain table, grouped by controller, sorted by payload.\n");
     out.push_str("pub const GAIN_TABLE: &[crate::gains::GainRow] = &[\n");
     let switching = |s: Switching| format!("::beam_kinds::Switching::{s:?}");
@@ -595,7 +655,7 @@ pub fn generate_rust(rows: &[Row]) -> String {
         ));
     }
     out.push_str("];\n");
-    out
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -603,14 +663,16 @@ mod tests {
     use super::*;
 
     const GOOD: &str = r#"
+[plant]
+modes = 3
+preset = "aluminium"
+
 [[row]]
 controller = "smc"
 payload_kg = 0.0
 w = 10.0
 a = 1000.0
 beta = 0.1
-preset = "aluminium"
-modes = 3
 cost_j = 1.0
 
 [[row]]
@@ -619,8 +681,6 @@ payload_kg = 0.05
 w = 12.0
 a = 900.0
 beta = 0.1
-preset = "aluminium"
-modes = 3
 cost_j = 2.0
 "#;
 
@@ -631,10 +691,11 @@ cost_j = 2.0
 
     #[test]
     fn a_good_table_round_trips() {
-        let rows = parse(GOOD, "gains.toml").unwrap();
-        assert_eq!(rows.len(), 2);
-        assert_eq!(parse(&render(&rows), "x").unwrap(), rows);
-        assert!(generate_rust(&rows)
+        let table = parse(GOOD, "gains.toml").unwrap();
+        assert_eq!(table.rows.len(), 2);
+        assert_eq!(parse(&render(&table), "x").unwrap(), table);
+        assert!(generate_rust(&table)
+            .unwrap()
             .contains("crate::law::Law::Smc(crate::law::SmcGains { w: 10.0, a: 1000.0"));
     }
 
@@ -663,6 +724,26 @@ cost_j = 2.0
         assert_eq!(bad("modes = 3", "modes = 7").field, Some("modes"));
         let e = bad("preset = \"aluminium\"", "preset = \"steel\"");
         assert!(e.message.contains("unknown variant `steel`"), "{e}");
+        // The plant: a field out of range names it; a partial beam without a preset names
+        // the first missing field; a plant carrying a payload is refused.
+        let e = bad(
+            "preset = \"aluminium\"",
+            "preset = \"aluminium\"\nei_nm2 = -1.0",
+        );
+        assert_eq!((e.row, e.field), (None, Some("ei_nm2")));
+        let e = bad("preset = \"aluminium\"", "length_m = 0.5");
+        assert_eq!(e.field, Some("width_m"), "{e}");
+        let e = bad(
+            "preset = \"aluminium\"",
+            "preset = \"aluminium\"\ntip_mass_kg = 0.1",
+        );
+        assert_eq!(e.field, Some("tip_mass_kg"), "{e}");
+        let e = parse(
+            &GOOD.replacen("[plant]\nmodes = 3\npreset = \"aluminium\"\n", "", 1),
+            "g",
+        )
+        .unwrap_err();
+        assert!(e.message.starts_with("the table has no [plant]"), "{e}");
         // A gain the law does not have is not part of its row.
         let e = bad("a = 900.0", "a = 900.0\nkp = 3.0");
         assert_eq!(e.row, Some(2));
@@ -670,20 +751,26 @@ cost_j = 2.0
         // Syntax and schema errors still say where.
         let e = bad("w = 12.0", "w = \"fast\"");
         assert_eq!(e.row, Some(2));
-        let e = bad("beta = 0.1\npreset", "beta = 0.1\ngain = 3\npreset");
+        let e = bad(
+            "beta = 0.1\ncost_j = 1.0",
+            "beta = 0.1\ngain = 3\ncost_j = 1.0",
+        );
         assert!(e.message.contains("unknown field"), "{e}");
         assert_eq!(
-            parse("", "g.toml").unwrap_err().to_string(),
+            parse("[plant]\nmodes = 1\npreset = \"table1\"\n", "g.toml")
+                .unwrap_err()
+                .to_string(),
             "g.toml: the table has no [[row]]"
         );
     }
 
     #[test]
     fn upsert_replaces_or_inserts_in_payload_order() {
-        let mut rows = parse(GOOD, "g").unwrap();
+        let mut table = parse(GOOD, "g").unwrap();
+        let rows = &mut table.rows;
         let mut mid = rows[0].clone();
         mid.payload_kg = 0.025;
-        upsert(&mut rows, mid.clone());
+        upsert(rows, mid.clone());
         assert_eq!(
             rows.iter().map(|r| r.payload_kg).collect::<Vec<_>>(),
             [0.0, 0.025, 0.05]
@@ -692,9 +779,9 @@ cost_j = 2.0
             panic!("the fixture's rows are smc")
         };
         g.w = 99.0;
-        upsert(&mut rows, mid.clone());
+        upsert(rows, mid.clone());
         assert_eq!(rows.len(), 3);
         assert_eq!(rows[1], mid);
-        assert!(parse(&render(&rows), "g").is_ok());
+        assert!(parse(&render(&table), "g").is_ok());
     }
 }

@@ -110,28 +110,30 @@ pub trait CommandedDrive {
     fn tick(&mut self, raw: &RawMeasurement) -> Result<TorqueCommand, SimError>;
 }
 
-/// model-core's command handler and controller, run on the host.
+/// model-core's command handler and controller, run on the host: the drive the firmware
+/// is, on the compiled plant (model-core's `PLANT`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct HostDrive<const N: usize> {
+pub struct HostDrive {
     /// The handler.
-    pub commander: Commander<N>,
+    pub commander: Commander,
     /// The controller.
     pub controller: CommandedController,
 }
 
-impl<const N: usize> HostDrive<N> {
-    /// The drive running `kind` on the nominal `drive` beam (its payload the initial
-    /// setting), idle at `home_rad`, with settings matching `sensors`.
-    pub fn try_new(
-        drive: BeamParams,
+impl HostDrive {
+    /// The drive running `kind` on the compiled plant carrying `payload_kg` (the initial
+    /// setting), idle at `home_rad`, with settings matching `sensors` (for the `N`-mode
+    /// model of that plant).
+    pub fn try_new<const N: usize>(
+        payload_kg: f32,
         kind: LawKind,
         home_rad: f32,
         sensors: &SensorConfig,
     ) -> Result<Self, SimError> {
-        let table = model_core::gains::GAIN_TABLE;
-        let (commander, law) =
-            Commander::<N>::try_new(drive, table, kind, drive.tip_mass_kg as f32)
-                .map_err(|e| SimError::Drive(Box::new(e)))?;
+        let (plant, table) = (&model_core::gains::PLANT, model_core::gains::GAIN_TABLE);
+        let (commander, law) = Commander::try_new(plant, table, kind, payload_kg)
+            .map_err(|e| SimError::Drive(Box::new(e)))?;
+        let drive = plant.params_with(payload_kg as f64);
         let nominal = ModalModel::<N>::try_build(&model_core::Beam::try_build(drive)?)?;
         let settings = model_core::ControllerSettings {
             theta_home_rad: home_rad,
@@ -148,7 +150,7 @@ impl<const N: usize> HostDrive<N> {
     }
 }
 
-impl<const N: usize> CommandedDrive for HostDrive<N> {
+impl CommandedDrive for HostDrive {
     fn handle(&mut self, request: &Request) -> Result<Reply, SimError> {
         Ok(self.commander.handle(&mut self.controller, request))
     }
@@ -159,17 +161,17 @@ impl<const N: usize> CommandedDrive for HostDrive<N> {
 }
 
 /// Runs `script` against the beam `plant` with model-core's handler on the host, the
-/// drive running `kind` on the nominal `drive` beam (its payload the initial setting), from
-/// rest at `home_rad`.
+/// drive running `kind` on the compiled plant carrying `payload_kg` (the initial setting),
+/// from rest at `home_rad`.
 pub fn run_commands<const N: usize>(
     plant: BeamParams,
-    drive: BeamParams,
+    payload_kg: f32,
     kind: LawKind,
     home_rad: f32,
     script: &[Step],
     sensors: SensorConfig,
 ) -> Result<CommandedRun, SimError> {
-    let mut host = HostDrive::<N>::try_new(drive, kind, home_rad, &sensors)?;
+    let mut host = HostDrive::try_new::<N>(payload_kg, kind, home_rad, &sensors)?;
     run_script::<N, _>(plant, &mut host, home_rad, script, sensors)
 }
 

@@ -392,7 +392,7 @@ pub fn simulate_mismatched<const N: usize>(
         ..settings_for(nominal, &opts.sensors)
     };
     let law = ControlLaw::try_build(law, nominal).map_err(|e| SimError::Config(e.into()))?;
-    let limits = Limits::for_model(nominal);
+    let limits = Limits::for_plant(nominal);
     let controller = Controller::try_build(settings, law, opts.motion.plan(&limits)?)
         .map_err(SimError::Config)?;
     run(Plant::new(*plant), controller, opts)

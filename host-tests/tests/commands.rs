@@ -26,7 +26,7 @@ fn session(kind: LawKind) -> CommandedRun {
     let drive = BeamParams::aluminium();
     run_commands::<3>(
         drive,
-        drive,
+        0.0,
         kind,
         0.0,
         &session_script(),
@@ -182,7 +182,7 @@ fn every_refusal_leaves_the_drive_as_it_was() {
     ];
     let run = run_commands::<3>(
         drive,
-        drive,
+        0.0,
         LawKind::PdFf,
         0.0,
         &script,

@@ -8,18 +8,19 @@
 //! the payload. The policy for a command that arrives mid-move is to refuse it
 //! ([`Refusal::Busy`]), except `Stop`, `Disable`, `Status` and `Stream`: nothing queues.
 
-use crate::beam::{Beam, BeamParams, ParamError};
+use crate::beam::ParamError;
 use crate::controller::{Controller, Mode, Snapshot};
 use crate::error::{CommandError, PlanError};
 use crate::gains::{law_for, schedule_shaper, GainRow};
 use crate::law::{ControlLaw, LawKind};
-use crate::modal::{ModalModel, ModelError};
 use crate::planner::{plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS};
+use crate::plant::Plant;
 use crate::shaper::Shaper;
 pub use beam_wire::command::{Command, Outcome, Refusal, Reply, Request, Status};
 use core::fmt;
 
-/// Heaviest payload the drive accepts, kg (the gain table's own limit).
+/// Heaviest payload the drive accepts, kg (the gain table's own limit; the compiled plant's
+/// payload grid, [`Plant::max_payload_kg`], is the tighter one).
 pub const MAX_PAYLOAD_KG: f32 = 1.0;
 
 /// The controller a commanded drive runs: its moves are planned, shaped moves.
@@ -29,10 +30,9 @@ pub type CommandedController = Controller<SHAPED_PLAN_KNOTS>;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SetupError {
-    /// The beam parameters (with the payload) are invalid.
-    Beam(ParamError),
-    /// The modal model could not be built.
-    Model(ModelError),
+    /// The payload is outside the plant's payload grid (the payloads the table was
+    /// designed for).
+    Payload,
     /// The gain table has no row for the law.
     NoGains,
     /// The scheduled gains are invalid for the model.
@@ -42,8 +42,7 @@ pub enum SetupError {
 impl fmt::Display for SetupError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SetupError::Beam(e) => write!(f, "beam: {e}"),
-            SetupError::Model(e) => write!(f, "model: {e}"),
+            SetupError::Payload => f.write_str("the payload is outside the plant's payload range"),
             SetupError::NoGains => f.write_str("the gain table has no row for the law"),
             SetupError::Gains(e) => write!(f, "gains: {e}"),
         }
@@ -52,11 +51,11 @@ impl fmt::Display for SetupError {
 
 impl core::error::Error for SetupError {}
 
-/// What the handler keeps between commands: the beam without payload, the table, the law,
-/// and what is scheduled for the present payload.
+/// What the handler keeps between commands: the plant, the table, the law, and what is
+/// scheduled for the present payload.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Commander<const N: usize> {
-    base: BeamParams,
+pub struct Commander {
+    plant: &'static Plant,
     table: &'static [GainRow],
     kind: LawKind,
     payload_kg: f32,
@@ -67,18 +66,19 @@ pub struct Commander<const N: usize> {
     current: Option<Plan>,
 }
 
-impl<const N: usize> Commander<N> {
-    /// The handler for `kind` on the beam `base` carrying `payload_kg`, with the law to build
-    /// the controller with.
+impl Commander {
+    /// The handler for `kind` on `plant` carrying `payload_kg`, with the law to build the
+    /// controller with. A drive passes the compiled [`crate::gains::PLANT`] and
+    /// [`crate::gains::GAIN_TABLE`].
     pub fn try_new(
-        base: BeamParams,
+        plant: &'static Plant,
         table: &'static [GainRow],
         kind: LawKind,
         payload_kg: f32,
     ) -> Result<(Self, ControlLaw), SetupError> {
-        let (law, shaper, limits) = configure::<N>(&base, table, kind, payload_kg)?;
+        let (law, shaper, limits) = configure(plant, table, kind, payload_kg)?;
         let me = Self {
-            base,
+            plant,
             table,
             kind,
             payload_kg,
@@ -88,6 +88,11 @@ impl<const N: usize> Commander<N> {
             current: None,
         };
         Ok((me, law))
+    }
+
+    /// The plant the drive is built for.
+    pub fn plant(&self) -> &'static Plant {
+        self.plant
     }
 
     /// The planner's limits for the present payload.
@@ -161,12 +166,10 @@ impl<const N: usize> Commander<N> {
                 if !(kg.is_finite() && (0.0..=MAX_PAYLOAD_KG).contains(kg)) {
                     return Err(Refusal::BadArgument);
                 }
-                let (law, shaper, limits) = configure::<N>(&self.base, self.table, self.kind, *kg)
+                let (law, shaper, limits) = configure(self.plant, self.table, self.kind, *kg)
                     .map_err(|e| match e {
                         SetupError::NoGains => Refusal::NoGains,
-                        SetupError::Beam(_) | SetupError::Model(_) | SetupError::Gains(_) => {
-                            Refusal::BadArgument
-                        }
+                        SetupError::Payload | SetupError::Gains(_) => Refusal::BadArgument,
                     })?;
                 Ok(Action::SetPayload(Schedule {
                     payload_kg: *kg,
@@ -358,25 +361,20 @@ fn refusal(e: CommandError) -> Refusal {
     }
 }
 
-/// The law, shaper and limits for `kind` on `base` carrying `payload_kg`.
-fn configure<const N: usize>(
-    base: &BeamParams,
+/// The law, shaper and limits for `kind` on `plant` carrying `payload_kg`.
+fn configure(
+    plant: &Plant,
     table: &[GainRow],
     kind: LawKind,
     payload_kg: f32,
 ) -> Result<(ControlLaw, Shaper, Limits), SetupError> {
-    let params = BeamParams {
-        tip_mass_kg: payload_kg as f64,
-        ..*base
-    };
-    let beam = Beam::try_build(params).map_err(SetupError::Beam)?;
-    let model = ModalModel::<N>::try_build(&beam).map_err(SetupError::Model)?;
+    let point = plant.at(payload_kg as f64).ok_or(SetupError::Payload)?;
     let gains = law_for(table, kind, payload_kg).ok_or(SetupError::NoGains)?;
-    let law = ControlLaw::try_build(gains, &model).map_err(SetupError::Gains)?;
+    let law = ControlLaw::try_build(gains, point).map_err(SetupError::Gains)?;
     Ok((
         law,
         schedule_shaper(table, kind, payload_kg),
-        Limits::for_model(&model),
+        Limits::for_plant(point),
     ))
 }
 
@@ -386,9 +384,9 @@ mod tests {
     use crate::controller::{ControllerSettings, RawMeasurement};
     use crate::spline::Spline;
 
-    fn drive() -> (Commander<3>, CommandedController) {
-        let (commander, law) = Commander::<3>::try_new(
-            BeamParams::aluminium(),
+    fn drive() -> (Commander, CommandedController) {
+        let (commander, law) = Commander::try_new(
+            &crate::gains::PLANT,
             crate::gains::GAIN_TABLE,
             LawKind::PdFf,
             0.0,

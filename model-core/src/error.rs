@@ -5,72 +5,9 @@
 //! Faults of a running controller are not errors: they are latched
 //! [`FaultFlags`](crate::FaultFlags), reported in every [`TorqueCommand`](crate::TorqueCommand).
 
-use crate::modal::MAX_MODES;
 use crate::shaper::ShaperError;
+pub use beam_model::error::{ModelError, ParamError, ParamErrorKind};
 use core::fmt;
-
-/// What is wrong with a parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ParamErrorKind {
-    /// NaN or infinite.
-    NonFinite,
-    /// Must be strictly positive.
-    NotPositive,
-    /// Must be zero or positive.
-    Negative,
-    /// Outside its documented range.
-    OutOfRange,
-}
-
-/// A rejected value: which field and why. The field is named as in the structure being
-/// validated: a [`BeamParams`](crate::BeamParams) field, a gain of a
-/// [`Law`](crate::Law) (`w`, `kp`, `c`, ...) or a
-/// [`ControllerSettings`](crate::ControllerSettings) field (`torque_limit_nm`, `adc.bits`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ParamError {
-    /// The field's name.
-    pub field: &'static str,
-    /// The reason.
-    pub kind: ParamErrorKind,
-}
-
-impl fmt::Display for ParamError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let why = match self.kind {
-            ParamErrorKind::NonFinite => "must be finite",
-            ParamErrorKind::NotPositive => "must be > 0",
-            ParamErrorKind::Negative => "must be >= 0",
-            ParamErrorKind::OutOfRange => "is out of range",
-        };
-        write!(f, "`{}` {}", self.field, why)
-    }
-}
-
-/// Why a model could not be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ModelError {
-    /// The mode count must be 1 to 4.
-    UnsupportedModeCount(usize),
-    /// A mass matrix came out singular or indefinite (cannot happen for valid parameters).
-    NotPositiveDefinite(&'static str),
-}
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ModelError::UnsupportedModeCount(n) => {
-                write!(
-                    f,
-                    "{n} modes requested: the model supports 1 to {MAX_MODES}"
-                )
-            }
-            ModelError::NotPositiveDefinite(what) => write!(f, "{what} is not positive definite"),
-        }
-    }
-}
 
 /// Why a spline could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -240,8 +177,6 @@ impl fmt::Display for PlanError {
 }
 
 impl core::error::Error for PlanError {}
-impl core::error::Error for ParamError {}
-impl core::error::Error for ModelError {}
 impl core::error::Error for SplineError {}
 // `ConfigError` displays its cause's message as its own, so it reports no separate source
 // (an error chain would print the message twice).

@@ -6,7 +6,10 @@
 //! per-tick [`ControlLaw::torque_nm`] is a handful of multiply-adds and one `tanhf`.
 
 use crate::beam::{ParamError, ParamErrorKind};
+#[cfg(doc)]
 use crate::modal::ModalModel;
+use crate::modal::MAX_MODES;
+use crate::plant::PlantPoint;
 use crate::spline::RefPoint;
 
 pub use beam_kinds::{LawKind, Switching};
@@ -147,28 +150,18 @@ pub struct LawState {
 
 /// gamma = e' Mqq^-1 h, how much a hub acceleration shows in the root strain of the held
 /// beam: the blended output y = theta + c eps_root has the input gain (1 - c gamma) / Jeff.
-pub fn strain_coupling<const N: usize>(m: &ModalModel<N>) -> f64 {
-    let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
-    crate::linalg::dot(&m.root_strain_coef, &minv_h)
+pub fn strain_coupling(plant: impl Into<PlantPoint>) -> f64 {
+    plant.into().strain_coupling()
 }
 
-/// `1 - c gamma`, refused below [`MIN_INPUT_GAIN_RATIO`], where the blend would take the
-/// output's control direction away.
-fn input_gain_ratio<const N: usize>(c: f64, m: &ModalModel<N>) -> Result<f64, ParamError> {
-    let ratio = 1.0 - c * strain_coupling(m);
-    if ratio >= MIN_INPUT_GAIN_RATIO as f64 {
-        Ok(ratio)
-    } else {
-        Err(ParamError {
-            field: "c",
-            kind: ParamErrorKind::OutOfRange,
-        })
-    }
+/// `1 - c gamma`, refused below [`PlantPoint::MIN_BLEND_RATIO`], where the blend would take
+/// the output's control direction away.
+fn input_gain_ratio(c: f64, m: &PlantPoint) -> Result<f64, ParamError> {
+    m.blend_ratio(c).ok_or(ParamError {
+        field: "c",
+        kind: ParamErrorKind::OutOfRange,
+    })
 }
-
-/// Smallest admissible `1 - c gamma`: the blended output's input gain relative to the hub's.
-/// Below it the surface's control direction nearly vanishes (or flips).
-const MIN_INPUT_GAIN_RATIO: f32 = 0.2;
 
 /// A validated law folded with the model constants it needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -200,8 +193,10 @@ struct ModelTerms {
 }
 
 impl ControlLaw {
-    /// Validates `law`'s gains and precomputes what the tick needs from `model`.
-    pub fn try_build<const N: usize>(law: Law, model: &ModalModel<N>) -> Result<Self, ParamError> {
+    /// Validates `law`'s gains and precomputes what the tick needs from the plant: a
+    /// [`PlantPoint`] (the drive's compiled plant at its payload) or a [`ModalModel`].
+    pub fn try_build(law: Law, plant: impl Into<PlantPoint>) -> Result<Self, ParamError> {
+        let model = &plant.into();
         fn bad<T>(field: &'static str, kind: ParamErrorKind) -> Result<T, ParamError> {
             Err(ParamError { field, kind })
         }
@@ -275,7 +270,7 @@ impl ControlLaw {
                 let jc = Self::blended_inertia(g.c as f64, model)?;
                 // Jc A beta Wi |z| <= the drive's limit (infinite without integral action).
                 let per_z = jc * (g.a * g.beta * g.wi) as f64;
-                let limit = model.beam.params().torque_limit_nm;
+                let limit = model.torque_limit_nm;
                 Ok(Self {
                     inertia: jc as f32,
                     integral_max: if per_z > 0.0 {
@@ -291,7 +286,7 @@ impl ControlLaw {
 
     /// `[C M0^-1 B]^-1 = Jeff / (1 - c gamma)` for the output y = theta + c eps_root (see
     /// `strain_law`); Jeff itself for c = 0.
-    fn blended_inertia<const N: usize>(c: f64, m: &ModalModel<N>) -> Result<f64, ParamError> {
+    fn blended_inertia(c: f64, m: &PlantPoint) -> Result<f64, ParamError> {
         Ok(m.jeff / input_gain_ratio(c, m)?)
     }
 
@@ -300,29 +295,25 @@ impl ControlLaw {
     /// C M0^-1 B = (1 - c gamma) / Jeff with gamma = e' Mqq^-1 h, and the row
     /// C M0^-1 = [r_theta, r_q] with r_theta = (1 - c gamma)/Jeff and
     /// r_q = c e' Mqq^-1 - r_theta h' Mqq^-1.
-    fn strain_law<const N: usize>(
-        law: Law,
-        g: StrainSmcGains,
-        m: &ModalModel<N>,
-    ) -> Result<Self, ParamError> {
+    fn strain_law(law: Law, g: StrainSmcGains, m: &PlantPoint) -> Result<Self, ParamError> {
         let c = g.c as f64;
         let e = m.root_strain_coef;
-        let minv_h = crate::linalg::mat_vec(&m.mqq_inv, &m.h);
         let ratio = input_gain_ratio(c, m)?;
         let r_theta = ratio / m.jeff;
-        let e_minv = crate::linalg::mat_vec(&m.mqq_inv, &e); // Mqq^-1 symmetric: e' Mqq^-1
-        let r_q: [f64; N] = core::array::from_fn(|j| c * e_minv[j] - r_theta * minv_h[j]);
-        let col0 = |a: &crate::linalg::Mat<N>| (0..N).map(|j| r_q[j] * a[j][0]).sum::<f64>();
+        // Past the model's modes every vector is zero, and so is each added term.
+        let r_q: [f64; MAX_MODES] =
+            core::array::from_fn(|j| c * m.minv_e[j] - r_theta * m.minv_h[j]);
+        let col0 = |a: &[f64; MAX_MODES]| (0..MAX_MODES).map(|j| r_q[j] * a[j]).sum::<f64>();
         let model = if g.model_terms && e[0].abs() > 0.0 {
             ModelTerms {
                 enabled: true,
                 q_per_strain: (1.0 / e[0]) as f32,
                 r_theta: r_theta as f32,
-                viscous: m.beam.params().viscous_nms as f32,
-                s11: m.s[0][0] as f32,
-                k_sum: col0(&m.kqq) as f32,
-                c_sum: col0(&m.cq) as f32,
-                s_sum: col0(&m.s) as f32,
+                viscous: m.viscous_nms as f32,
+                s11: m.s_col0[0] as f32,
+                k_sum: col0(&m.kqq_col0) as f32,
+                c_sum: col0(&m.cq_col0) as f32,
+                s_sum: col0(&m.s_col0) as f32,
             }
         } else {
             ModelTerms::default()
@@ -400,6 +391,7 @@ impl ControlLaw {
 mod tests {
     use super::*;
     use crate::beam::{Beam, BeamParams};
+    use crate::modal::ModalModel;
 
     fn model() -> ModalModel<3> {
         ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()

@@ -5,9 +5,9 @@
 //! beam on the host. It is layered so that configuration is built and validated once, outside
 //! the hot path, and the per-tick [`controller::Controller::step`] never fails and never panics:
 //!
-//! - [`beam`]: physical parameters, the two presets, validation.
-//! - [`modal`]: the assumed-modes model (mode shapes, mass, stiffness and foreshortening
-//!   matrices, frequencies) of docs/design.md, section 2, in `f64` because it is computed once.
+//! - [`beam`], [`modal`], [`linalg`], [`plant`]: the beam's parameters, its assumed-modes
+//!   model and the plant the drive is built for, from the `beam-model` crate (re-exported);
+//!   [`gains::PLANT`] is the plant compiled in with the gain table.
 //! - [`spline`]: the rest-to-rest reference (quintic and multi-knot C2).
 //! - [`shaper`]: ZV, ZVD and EI input shapers, and shaped moves as splines.
 //! - [`measure`]: raw counts and ADC codes to angle, velocity and strain.
@@ -58,15 +58,13 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
-pub mod beam;
+pub use beam_model::{beam, linalg, modal, plant};
 pub mod commands;
 pub mod controller;
 pub mod error;
 pub mod gains;
 pub mod law;
-pub mod linalg;
 pub mod measure;
-pub mod modal;
 pub mod planner;
 pub mod shaper;
 pub mod spline;
@@ -78,9 +76,7 @@ pub const LOOP_HZ: u32 = 1_000;
 /// tick of [`LOOP_HZ`].
 pub const DEFAULT_TS_S: f32 = 1.0 / LOOP_HZ as f32;
 
-/// The drive's torque limit, N m: the controller saturates at it, the amplifier's full scale
-/// equals it (so saturation never clips twice), and the presets' plant carries it.
-pub const DRIVE_TORQUE_LIMIT_NM: f32 = 10.0;
+pub use beam_model::DRIVE_TORQUE_LIMIT_NM;
 
 pub use beam::{Beam, BeamParams, ParamError, Preset};
 
@@ -95,5 +91,6 @@ pub use law::{
 pub use measure::{AdcSpec, EncoderSpec};
 pub use modal::{ModalModel, ModelError};
 pub use planner::{plan_move, plan_through, Limits, PlanError, PlannedMove, Waypoint};
+pub use plant::{Plant, PlantPoint};
 pub use shaper::{Shaper, ShaperError, ShaperKind, Timing};
 pub use spline::{RefPoint, Spline, SplineError};

@@ -16,12 +16,15 @@
 //! where it matters, with no allocation.
 
 pub use crate::error::PlanError;
+#[cfg(doc)]
 use crate::modal::ModalModel;
+use crate::plant::PlantPoint;
 use crate::shaper::{shape, Shaper, ShaperKind};
 use crate::spline::{Peaks, Spline};
 
-/// Most waypoints a move passes through (the target included).
-pub const MAX_WAYPOINTS: usize = 8;
+/// Most waypoints a move passes through (the target included): the wire protocol's limit,
+/// defined once there, so a command that decodes is a command the planner takes.
+pub use beam_wire::command::MAX_WAYPOINTS;
 
 /// Shortest segment between waypoints, s: one tick.
 pub const MIN_SEGMENT_S: f64 = 1e-3;
@@ -66,17 +69,18 @@ impl Limits {
     /// Default range, rad: half a turn either side of the zero.
     pub const DEFAULT_RANGE_RAD: f32 = core::f32::consts::PI;
 
-    /// The defaults for `model`: its rigid inertia (with the payload it was built with),
-    /// friction and torque limit (the drive's 10 N m for the presets).
-    pub fn for_model<const N: usize>(model: &ModalModel<N>) -> Self {
-        let p = model.beam.params();
+    /// The defaults for the plant (a [`PlantPoint`] or a [`ModalModel`]): its rigid inertia
+    /// (with the payload it was built with), friction and torque limit (the drive's 10 N m
+    /// for the presets).
+    pub fn for_plant(plant: impl Into<PlantPoint>) -> Self {
+        let p = plant.into();
         Self {
             torque_limit_nm: p.torque_limit_nm as f32,
             torque_fraction: Self::DEFAULT_TORQUE_FRACTION,
             max_speed_rad_s: Self::DEFAULT_MAX_SPEED_RAD_S,
             min_rad: -Self::DEFAULT_RANGE_RAD,
             max_rad: Self::DEFAULT_RANGE_RAD,
-            inertia_kgm2: model.mtt as f32,
+            inertia_kgm2: p.mtt as f32,
             coulomb_nm: p.coulomb_nm as f32,
             viscous_nms: p.viscous_nms as f32,
         }
@@ -401,12 +405,13 @@ pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanEr
 mod tests {
     use super::*;
     use crate::beam::{Beam, BeamParams};
+    use crate::modal::ModalModel;
     use proptest::prelude::*;
 
     fn limits() -> Limits {
         let m: ModalModel<3> =
             ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
-        Limits::for_model(&m)
+        Limits::for_plant(&m)
     }
 
     const DEG: f32 = core::f32::consts::PI / 180.0;

@@ -10,7 +10,7 @@ use beam_wire::command::{Command, Outcome, Request};
 use clap::Args;
 use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
 use host_tests::sensors::SensorConfig;
-use model_core::{BeamParams, LawKind};
+use model_core::LawKind;
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -117,10 +117,9 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
     if let Some(port) = &a.port {
         return run_port(a, port, &script);
     }
-    let params = BeamParams {
-        tip_mass_kg: a.payload,
-        ..BeamParams::aluminium()
-    };
+    // The simulated beam is the plant the drive was built for (the compiled table's), with
+    // the payload on it.
+    let params = model_core::gains::PLANT.params_with(a.payload);
     let home = a.home.to_radians() as f32;
     let sensors = SensorConfig::default();
     let (run, pil) = if a.pil {
@@ -145,7 +144,14 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         let summary = (out.identical, out.max_ulps, out.insns);
         (out.pil, Some(summary))
     } else {
-        let run = run_commands::<3>(params, params, a.controller, home, &script, sensors)?;
+        let run = run_commands::<3>(
+            params,
+            a.payload as f32,
+            a.controller,
+            home,
+            &script,
+            sensors,
+        )?;
         (run, None)
     };
     let moves = move_results(&run);

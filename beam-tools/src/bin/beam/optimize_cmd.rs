@@ -295,7 +295,7 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         spec.load_hold,
     )?;
     if let Some(path) = &a.table {
-        write_row(path, &outcome, &spec, a, N)?;
+        write_row(path, &outcome, &spec, a, beam, N)?;
     }
     report(&outcome, &spec, &winner, &baseline, a, seconds)
 }
@@ -399,7 +399,7 @@ fn parse_start(text: &str, spec: &Spec) -> anyhow::Result<Vec<f64>> {
 /// The gains of the table row of this controller with the nearest payload, if any, in the
 /// order of `spec.params`.
 fn neighbour_gains(path: &std::path::Path, a: &OptimizeArgs, spec: &Spec) -> Option<Vec<f64>> {
-    let rows = gain_table::load(path).ok()?;
+    let rows = gain_table::load(path).ok()?.rows;
     let payload = a.plant.tip_mass.unwrap_or(0.0);
     let row = rows
         .iter()
@@ -426,6 +426,7 @@ fn write_row(
     o: &Outcome,
     spec: &Spec,
     a: &OptimizeArgs,
+    beam: &Beam,
     modes: usize,
 ) -> anyhow::Result<()> {
     if !o.best.feasible() {
@@ -434,11 +435,41 @@ fn write_row(
             path.display()
         );
     }
-    let mut rows = if path.exists() {
+    // The plant the gains were designed for: the preset by name, or the file's beam; the
+    // payload is the row's.
+    let payload_kg = beam.params().tip_mass_kg;
+    let plant = match &a.plant.params {
+        None => gain_table::PlantSpec {
+            params: model_core::BeamParams {
+                tip_mass_kg: 0.0,
+                ..*beam.params()
+            },
+            ..gain_table::PlantSpec::preset(a.plant.preset, modes)
+        },
+        Some(_) => gain_table::PlantSpec::params(*beam.params(), modes),
+    };
+    let mut table = if path.exists() {
         gain_table::load(path)?
     } else {
-        Vec::new()
+        gain_table::Table {
+            plant: plant.clone(),
+            rows: Vec::new(),
+        }
     };
+    if table.plant.params != plant.params || table.plant.modes != plant.modes {
+        bail!(
+            "{}: not written: the table was designed for another plant ({} modes, EI {} N m^2, \
+             Jm {} kg m^2, ...) than these gains ({} modes, EI {} N m^2, Jm {} kg m^2, ...); \
+             write to a new table",
+            path.display(),
+            table.plant.modes,
+            table.plant.params.ei_nm2,
+            table.plant.params.jm_kgm2,
+            plant.modes,
+            plant.params.ei_nm2,
+            plant.params.jm_kgm2
+        );
+    }
     // Store the f32 gains the drive will run, by their shortest decimals.
     let f = host_tests::decimal::f32_decimal;
     let gains = match o.best.law {
@@ -479,10 +510,8 @@ fn write_row(
     };
     let shaper = beam_tools::optimize::motion_for(spec, &o.best.gains).shaper;
     let row = gain_table::Row {
-        payload_kg: a.plant.tip_mass.unwrap_or(0.0),
+        payload_kg,
         gains,
-        preset: a.plant.preset,
-        modes: modes as u32,
         cost_j: o.best.cost,
         shaper: gain_table::ShaperRow {
             kind: shaper.kind,
@@ -491,8 +520,8 @@ fn write_row(
             tolerance: f(shaper.tolerance),
         },
     };
-    gain_table::upsert(&mut rows, row);
-    let text = gain_table::render(&rows);
+    gain_table::upsert(&mut table.rows, row);
+    let text = gain_table::render(&table);
     gain_table::parse(&text, &path.display().to_string())?;
     beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
         .with_context(|| path.display().to_string())

@@ -105,7 +105,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     let nominal = *beam(&a.plant)?.params();
     let kind = a.controller.name();
     let loaded = match &a.table {
-        Some(path) => Some(beam_tools::table::gain_rows(&gain_table::load(path)?)),
+        Some(path) => Some(beam_tools::table::gain_rows(&gain_table::load(path)?.rows)),
         None => None,
     };
     let table = loaded.as_deref().unwrap_or(model_core::gains::GAIN_TABLE);

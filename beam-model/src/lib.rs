@@ -1,0 +1,31 @@
+//! The slewing beam as physics: its parameters, its assumed-modes model, and the plant a
+//! drive is built for.
+//!
+//! `no_std`, allocation-free, in `f64`: everything here is computed once, on the host (the
+//! gain table's build script compiles the plant into the drive as constants, so the drive
+//! links none of the model's soft-float code) or when a host tool sets up a simulation.
+//!
+//! - [`beam`]: physical parameters, the two presets, validation.
+//! - [`modal`]: the assumed-modes model (mode shapes, mass, stiffness and foreshortening
+//!   matrices, frequencies) of docs/design.md, section 2.
+//! - [`plant`]: the model reduced to what the control laws and the planner read, at one
+//!   payload ([`plant::PlantPoint`]) and over a payload grid ([`plant::Plant`]).
+//! - [`linalg`]: the small dense linear algebra the model needs.
+//! - [`error`]: the errors of the parameters and the model.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod beam;
+pub mod error;
+pub mod linalg;
+pub mod modal;
+pub mod plant;
+
+/// The drive's torque limit, N m: the controller saturates at it, the amplifier's full scale
+/// equals it (so saturation never clips twice), and the presets' plant carries it.
+pub const DRIVE_TORQUE_LIMIT_NM: f32 = 10.0;
+
+pub use beam::{Beam, BeamParams, Preset};
+pub use error::{ModelError, ParamError, ParamErrorKind};
+pub use modal::ModalModel;
+pub use plant::{Plant, PlantPoint};

@@ -1,0 +1,206 @@
+//! The plant a drive is built for, reduced to what its control laws and its move planner read.
+//!
+//! The assumed-modes model ([`crate::modal`]) is integrated in `f64` with transcendental
+//! functions: cheap on a host, about 10 KiB of soft-float code on a Cortex-M4F. A drive never
+//! needs the whole model, only a few numbers of it at the payload it carries: the rigid and
+//! effective inertias, how a hub acceleration shows in the root strain, and (for the strain
+//! law's model terms) the first columns of the modal matrices. [`PlantPoint`] holds those
+//! numbers for one payload; [`Plant`] holds them with no payload and what a payload changes,
+//! over the payload range a gain table covers. The build computes it on the host from the
+//! table's `[plant]` and compiles it in, so the drive builds nothing at start-up, and a
+//! payload set at run time costs a few dozen multiplications.
+
+use crate::beam::BeamParams;
+use crate::linalg;
+use crate::modal::{ModalModel, MAX_MODES};
+
+/// The plant at one payload: what the laws and the planner read of the modal model, `f64`
+/// (they fold it into their own `f32` constants once). Vectors run over the model's modes
+/// and are zero past them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantPoint {
+    /// The payload (tip mass) these numbers are for, kg.
+    pub payload_kg: f64,
+    /// The drive's torque limit, N m.
+    pub torque_limit_nm: f64,
+    /// Viscous hub friction, N m s/rad.
+    pub viscous_nms: f64,
+    /// Coulomb hub friction, N m.
+    pub coulomb_nm: f64,
+    /// Rigid hub-plus-beam inertia Mtt, kg m^2.
+    pub mtt: f64,
+    /// Effective hub inertia with the beam free to flex, `Mtt - h' Mqq^-1 h`, kg m^2.
+    pub jeff: f64,
+    /// Root strain per unit modal coordinate, e_i.
+    pub root_strain_coef: [f64; MAX_MODES],
+    /// `Mqq^-1 h`.
+    pub minv_h: [f64; MAX_MODES],
+    /// `Mqq^-1 e` (Mqq is symmetric: also `e' Mqq^-1`).
+    pub minv_e: [f64; MAX_MODES],
+    /// First column of the modal stiffness Kqq, N/m.
+    pub kqq_col0: [f64; MAX_MODES],
+    /// First column of the modal damping Cq, N s/m.
+    pub cq_col0: [f64; MAX_MODES],
+    /// First column of `S = Mqq + 2 G`, kg.
+    pub s_col0: [f64; MAX_MODES],
+}
+
+impl PlantPoint {
+    /// The numbers of `model`, at the payload it was built with.
+    pub fn of<const N: usize>(model: &ModalModel<N>) -> Self {
+        let p = model.beam.params();
+        let pad = |v: [f64; N]| -> [f64; MAX_MODES] {
+            core::array::from_fn(|i| if i < N { v[i] } else { 0.0 })
+        };
+        let col0 = |a: &linalg::Mat<N>| pad(core::array::from_fn(|j| a[j][0]));
+        Self {
+            payload_kg: p.tip_mass_kg,
+            torque_limit_nm: p.torque_limit_nm,
+            viscous_nms: p.viscous_nms,
+            coulomb_nm: p.coulomb_nm,
+            mtt: model.mtt,
+            jeff: model.jeff,
+            root_strain_coef: pad(model.root_strain_coef),
+            minv_h: pad(linalg::mat_vec(&model.mqq_inv, &model.h)),
+            minv_e: pad(linalg::mat_vec(&model.mqq_inv, &model.root_strain_coef)),
+            kqq_col0: col0(&model.kqq),
+            cq_col0: col0(&model.cq),
+            s_col0: col0(&model.s),
+        }
+    }
+
+    /// gamma = e' Mqq^-1 h: how much a hub acceleration shows in the root strain of the held
+    /// beam.
+    pub fn strain_coupling(&self) -> f64 {
+        linalg::dot(&self.root_strain_coef, &self.minv_h)
+    }
+
+    /// Smallest admissible `1 - c gamma` of a strain blend `y = theta + c eps_root`: the
+    /// blended output's input gain relative to the hub's. Below it the surface's control
+    /// direction nearly vanishes (or flips).
+    pub const MIN_BLEND_RATIO: f64 = 0.2;
+
+    /// `1 - c gamma` for the strain blend `c` (rad per unit strain), if at least
+    /// [`Self::MIN_BLEND_RATIO`]: the one rule for a blend, which the gain table's build and
+    /// the laws both apply.
+    pub fn blend_ratio(&self, c: f64) -> Option<f64> {
+        let ratio = 1.0 - c * self.strain_coupling();
+        (ratio >= Self::MIN_BLEND_RATIO).then_some(ratio)
+    }
+}
+
+impl<const N: usize> From<&ModalModel<N>> for PlantPoint {
+    fn from(model: &ModalModel<N>) -> Self {
+        Self::of(model)
+    }
+}
+
+impl From<&PlantPoint> for PlantPoint {
+    fn from(point: &PlantPoint) -> Self {
+        *point
+    }
+}
+
+/// The plant a drive is built for: the beam without payload, the model's mode count, the
+/// model's numbers at no payload, and what the payload changes.
+///
+/// A tip mass `p` enters the model as a rank-one term: `Mqq(p) = Mqq + p u u'` with
+/// `u_i = phi_i(L)`, `h(p) = h + p (r + L) u`, `Mtt(p) = Mtt + p (r + L)^2`, and `S` affinely.
+/// So [`Plant::at`] computes the plant at any payload exactly, with no integral and no
+/// matrix factorisation: `Mqq(p)^-1` by the Sherman-Morrison formula. Only the first clamped
+/// frequency (which sets the first mode's damping term) is an eigenvalue; it is tabulated
+/// and `1/f^2` interpolated between grid points (exact for one mode, where `1/f^2` is affine
+/// in the payload).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plant {
+    /// The beam, its tip mass zero (the payload is the drive's setting).
+    pub params: BeamParams,
+    /// Flexible modes of the model.
+    pub modes: usize,
+    /// The plant at no payload.
+    pub base: PlantPoint,
+    /// `Mqq^-1` at no payload (zero past the model's modes).
+    pub mqq_inv: [[f64; MAX_MODES]; MAX_MODES],
+    /// The coupling `h` at no payload.
+    pub h: [f64; MAX_MODES],
+    /// The mode shapes at the tip, `u_i = phi_i(L)`.
+    pub tip_shape: [f64; MAX_MODES],
+    /// How the first column of `S` grows with the payload, per kg.
+    pub s_col0_per_kg: [f64; MAX_MODES],
+    /// `Mqq[0][0]` at no payload, kg.
+    pub mqq00: f64,
+    /// The heaviest payload the drive accepts, kg (the table's heaviest row).
+    pub max_payload_kg: f64,
+    /// The first clamped frequency, Hz, at payloads (kg) from 0 to `max_payload_kg`.
+    pub first_hz: &'static [(f64, f64)],
+}
+
+impl Plant {
+    /// The heaviest payload the plant covers, kg.
+    pub fn max_payload_kg(&self) -> f64 {
+        self.max_payload_kg
+    }
+
+    /// The plant at `payload_kg` (see [`Plant`]); `None` outside 0 to
+    /// [`Plant::max_payload_kg`] (or NaN).
+    pub fn at(&self, payload_kg: f64) -> Option<PlantPoint> {
+        let p = payload_kg;
+        if !(p >= 0.0 && p <= self.max_payload_kg) {
+            return None;
+        }
+        if p == 0.0 {
+            return Some(self.base);
+        }
+        let b = &self.base;
+        let u = &self.tip_shape;
+        let arm = self.params.hub_radius_m + self.params.length_m;
+        let mtt = b.mtt + p * arm * arm;
+        let h: [f64; MAX_MODES] = core::array::from_fn(|i| self.h[i] + p * arm * u[i]);
+        // Sherman-Morrison: (M + p u u')^-1 = M^-1 - p w w' / (1 + p u'w), w = M^-1 u.
+        let w = linalg::mat_vec(&self.mqq_inv, u);
+        let k = p / (1.0 + p * linalg::dot(u, &w));
+        let minv: [[f64; MAX_MODES]; MAX_MODES] = core::array::from_fn(|i| {
+            core::array::from_fn(|j| self.mqq_inv[i][j] - k * w[i] * w[j])
+        });
+        let minv_h = linalg::mat_vec(&minv, &h);
+        let f1 = self.first_hz_at(p)?;
+        let mut cq_col0 = [0.0; MAX_MODES];
+        let mqq00 = self.mqq00 + p * u[0] * u[0];
+        cq_col0[0] = 2.0 * self.params.damping_ratio * (2.0 * core::f64::consts::PI * f1) * mqq00;
+        Some(PlantPoint {
+            payload_kg: p,
+            mtt,
+            jeff: mtt - linalg::dot(&h, &minv_h),
+            minv_h,
+            minv_e: linalg::mat_vec(&minv, &b.root_strain_coef),
+            cq_col0,
+            s_col0: core::array::from_fn(|i| b.s_col0[i] + p * self.s_col0_per_kg[i]),
+            ..*b
+        })
+    }
+
+    /// The first clamped frequency at `p`, Hz: `1/f^2` interpolated on the table.
+    fn first_hz_at(&self, p: f64) -> Option<f64> {
+        let mut below = self.first_hz.first()?;
+        for above in self.first_hz {
+            if p == above.0 {
+                return Some(above.1);
+            }
+            if p < above.0 {
+                let f = (p - below.0) / (above.0 - below.0);
+                let (a, b) = (1.0 / (below.1 * below.1), 1.0 / (above.1 * above.1));
+                return Some(libm::sqrt(1.0 / (a + (b - a) * f)));
+            }
+            below = above;
+        }
+        None
+    }
+
+    /// The beam with `payload_kg` at its tip.
+    pub fn params_with(&self, payload_kg: f64) -> BeamParams {
+        BeamParams {
+            tip_mass_kg: payload_kg,
+            ..self.params
+        }
+    }
+}

@@ -1,0 +1,457 @@
+//! The table's `[plant]`: the beam its gains were designed for, and the plant compiled in
+//! with it (`beam_model::plant::Plant`, computed here on the host).
+//!
+//! ```toml
+//! [plant]
+//! modes = 3
+//! preset = "aluminium"     # a preset, each field below overriding it, or
+//! # length_m = 0.4842      # every field of a parameter file (`beam calibrate` writes one)
+//! ```
+
+use crate::Row;
+use beam_kinds::Preset;
+use beam_model::modal::MAX_MODES;
+use beam_model::plant::{Plant, PlantPoint};
+use beam_model::{Beam, BeamParams, ModalModel};
+use serde::{Deserialize, Serialize};
+
+/// Widest step of the table of the first clamped frequency over the payload, kg (the one
+/// number of the plant that is interpolated; see `beam_model::plant::Plant`).
+pub const PLANT_STEP_KG: f64 = 0.0025;
+
+/// The beam a table's gains were designed for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlantSpec {
+    /// The preset the parameters start from, if any (rendered back as such when nothing
+    /// overrides it).
+    pub preset: Option<Preset>,
+    /// The beam, tip mass zero: the rows' `payload_kg` is the payload.
+    pub params: BeamParams,
+    /// Flexible modes of the model (1 to 4).
+    pub modes: usize,
+}
+
+/// The `[plant]` keys: the mode count, an optional preset, and `BeamParams`' fields.
+#[derive(Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Keys {
+    modes: usize,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    preset: Option<Preset>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    length_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    width_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    thickness_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    hub_radius_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    density_kg_m3: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    ei_nm2: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    jm_kgm2: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    viscous_nms: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    coulomb_nm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tip_mass_kg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    damping_ratio: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    root_gauge_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    mid_gauge_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    torque_limit_nm: Option<f64>,
+}
+
+/// `BeamParams`' fields as (name, accessor) pairs, in a parameter file's order.
+type Field = (&'static str, fn(&mut BeamParams) -> &mut f64);
+const FIELDS: [Field; 14] = [
+    ("length_m", |p| &mut p.length_m),
+    ("width_m", |p| &mut p.width_m),
+    ("thickness_m", |p| &mut p.thickness_m),
+    ("hub_radius_m", |p| &mut p.hub_radius_m),
+    ("density_kg_m3", |p| &mut p.density_kg_m3),
+    ("ei_nm2", |p| &mut p.ei_nm2),
+    ("jm_kgm2", |p| &mut p.jm_kgm2),
+    ("viscous_nms", |p| &mut p.viscous_nms),
+    ("coulomb_nm", |p| &mut p.coulomb_nm),
+    ("tip_mass_kg", |p| &mut p.tip_mass_kg),
+    ("damping_ratio", |p| &mut p.damping_ratio),
+    ("root_gauge_m", |p| &mut p.root_gauge_m),
+    ("mid_gauge_m", |p| &mut p.mid_gauge_m),
+    ("torque_limit_nm", |p| &mut p.torque_limit_nm),
+];
+
+impl Keys {
+    fn values(&mut self) -> [&mut Option<f64>; 14] {
+        [
+            &mut self.length_m,
+            &mut self.width_m,
+            &mut self.thickness_m,
+            &mut self.hub_radius_m,
+            &mut self.density_kg_m3,
+            &mut self.ei_nm2,
+            &mut self.jm_kgm2,
+            &mut self.viscous_nms,
+            &mut self.coulomb_nm,
+            &mut self.tip_mass_kg,
+            &mut self.damping_ratio,
+            &mut self.root_gauge_m,
+            &mut self.mid_gauge_m,
+            &mut self.torque_limit_nm,
+        ]
+    }
+}
+
+/// A `[plant]` error: the field (if one) and why.
+pub(crate) type PlantError = (Option<&'static str>, String);
+
+impl PlantSpec {
+    /// A preset's beam with an `modes`-mode model.
+    pub fn preset(preset: Preset, modes: usize) -> Self {
+        Self {
+            preset: Some(preset),
+            params: BeamParams::preset(preset),
+            modes,
+        }
+    }
+
+    /// The beam `params` (its tip mass is dropped: the rows carry the payload).
+    pub fn params(params: BeamParams, modes: usize) -> Self {
+        Self {
+            preset: None,
+            params: BeamParams {
+                tip_mass_kg: 0.0,
+                ..params
+            },
+            modes,
+        }
+    }
+
+    pub(crate) fn from_value(v: &toml::Value) -> Result<Self, PlantError> {
+        let mut keys: Keys = v
+            .clone()
+            .try_into()
+            .map_err(|e: toml::de::Error| (None, format!("[plant]: {}", e.message().trim())))?;
+        let preset = keys.preset;
+        let mut out = preset.map_or(BeamParams::table1(), BeamParams::preset);
+        for ((name, field), value) in FIELDS.iter().zip(keys.values()) {
+            match (value, preset) {
+                (Some(v), _) => *field(&mut out) = *v,
+                (None, Some(_)) => {}
+                (None, None) => {
+                    return Err((
+                        Some(name),
+                        format!("[plant]: missing `{name}` (give every field, or a `preset`)"),
+                    ))
+                }
+            }
+        }
+        if out.tip_mass_kg != 0.0 {
+            return Err((
+                Some("tip_mass_kg"),
+                format!(
+                    "[plant]: {} kg: the plant carries no payload (the rows' payload_kg is it)",
+                    out.tip_mass_kg
+                ),
+            ));
+        }
+        if !(1..=beam_model::modal::MAX_MODES).contains(&keys.modes) {
+            return Err((
+                Some("modes"),
+                format!("[plant]: {} modes: the model has 1 to 4", keys.modes),
+            ));
+        }
+        let spec = Self {
+            preset,
+            params: out,
+            modes: keys.modes,
+        };
+        spec.point(0.0)?;
+        Ok(spec)
+    }
+
+    /// The `[plant]` table's text: the preset alone when the beam is the preset's, else
+    /// every field.
+    pub fn render(&self) -> String {
+        let mut keys = Keys {
+            modes: self.modes,
+            ..Keys::default()
+        };
+        match self.preset {
+            Some(p) if BeamParams::preset(p) == self.params => keys.preset = Some(p),
+            _ => {
+                let mut params = self.params;
+                for ((_, field), value) in FIELDS.iter().zip(keys.values()) {
+                    *value = Some(*field(&mut params));
+                }
+            }
+        }
+        format!(
+            "[plant]\n{}",
+            toml::to_string(&keys).unwrap_or_else(|e| format!("# {e}\n"))
+        )
+    }
+
+    /// The model with `payload_kg` at the tip.
+    fn model<const N: usize>(&self, payload_kg: f64) -> Result<ModalModel<N>, PlantError> {
+        let beam = Beam::try_build(BeamParams {
+            tip_mass_kg: payload_kg,
+            ..self.params
+        })
+        .map_err(|e| (Some(e.field), format!("[plant]: {e}")))?;
+        ModalModel::<N>::try_build(&beam).map_err(|e| (None, format!("[plant]: {e}")))
+    }
+
+    /// The plant at `payload_kg`, from the exact model (what [`Plant::at`] must match).
+    pub fn point(&self, payload_kg: f64) -> Result<PlantPoint, PlantError> {
+        match self.modes {
+            1 => Ok(PlantPoint::of(&self.model::<1>(payload_kg)?)),
+            2 => Ok(PlantPoint::of(&self.model::<2>(payload_kg)?)),
+            3 => Ok(PlantPoint::of(&self.model::<3>(payload_kg)?)),
+            4 => Ok(PlantPoint::of(&self.model::<4>(payload_kg)?)),
+            n => Err((Some("modes"), format!("[plant]: {n} modes"))),
+        }
+    }
+
+    /// The payloads the first frequency is tabulated at for `rows`: zero, every row's
+    /// payload (as the drive's `f32` holds it), and enough points between that no step
+    /// exceeds [`PLANT_STEP_KG`].
+    pub fn payloads(rows: &[Row]) -> Vec<f64> {
+        let mut knots: Vec<f64> = rows.iter().map(|r| r.payload_kg as f32 as f64).collect();
+        knots.push(0.0);
+        knots.sort_by(f64::total_cmp);
+        knots.dedup();
+        let mut out = vec![knots[0]];
+        for pair in knots.windows(2) {
+            let (a, b) = (pair[0], pair[1]);
+            let n = ((b - a) / PLANT_STEP_KG).ceil().max(1.0) as usize;
+            for k in 1..n {
+                out.push((a + (b - a) * k as f64 / n as f64) as f32 as f64);
+            }
+            out.push(b);
+        }
+        out
+    }
+
+    /// The compiled plant for `rows` (see [`Plant`]): payloads from 0 to the heaviest row.
+    pub fn plant(&self, rows: &[Row]) -> Result<PlantParts, PlantError> {
+        match self.modes {
+            1 => self.plant_n::<1>(rows),
+            2 => self.plant_n::<2>(rows),
+            3 => self.plant_n::<3>(rows),
+            4 => self.plant_n::<4>(rows),
+            n => Err((Some("modes"), format!("[plant]: {n} modes"))),
+        }
+    }
+
+    fn plant_n<const N: usize>(&self, rows: &[Row]) -> Result<PlantParts, PlantError> {
+        let payloads = Self::payloads(rows);
+        let m0 = self.model::<N>(0.0)?;
+        // S is affine in the payload: its slope is the difference at 1 kg.
+        let s1 = PlantPoint::of(&self.model::<N>(1.0)?).s_col0;
+        let base = PlantPoint::of(&m0);
+        let pad = |v: &[f64; N]| -> [f64; MAX_MODES] {
+            core::array::from_fn(|i| if i < N { v[i] } else { 0.0 })
+        };
+        let mut first_hz = Vec::with_capacity(payloads.len());
+        for &p in &payloads {
+            first_hz.push((p, self.model::<N>(p)?.clamped_hz[0]));
+        }
+        let plant = Plant {
+            params: self.params,
+            modes: N,
+            base,
+            mqq_inv: core::array::from_fn(|i| {
+                if i < N {
+                    pad(&m0.mqq_inv[i])
+                } else {
+                    [0.0; MAX_MODES]
+                }
+            }),
+            h: pad(&m0.h),
+            tip_shape: pad(&m0.tip_coef),
+            s_col0_per_kg: core::array::from_fn(|i| s1[i] - base.s_col0[i]),
+            mqq00: m0.mqq[0][0],
+            max_payload_kg: payloads.last().copied().unwrap_or(0.0),
+            first_hz: &[],
+        };
+        Ok(PlantParts { plant, first_hz })
+    }
+}
+
+/// A [`Plant`] as computed, its frequency table (which the compiled plant holds as a
+/// `'static` slice) kept apart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlantParts {
+    /// The plant, `first_hz` empty.
+    pub plant: Plant,
+    /// Its `first_hz`.
+    pub first_hz: Vec<(f64, f64)>,
+}
+
+impl PlantParts {
+    /// The plant with its table, which is leaked: for a host tool or a test that needs one
+    /// plant for its whole run.
+    pub fn leak(self) -> Plant {
+        Plant {
+            first_hz: Box::leak(self.first_hz.into_boxed_slice()),
+            ..self.plant
+        }
+    }
+}
+
+fn point_source(q: &PlantPoint) -> String {
+    format!(
+        "::beam_model::plant::PlantPoint {{ payload_kg: {:?}, torque_limit_nm: {:?}, \
+         viscous_nms: {:?}, coulomb_nm: {:?}, mtt: {:?}, jeff: {:?}, root_strain_coef: {:?}, \
+         minv_h: {:?}, minv_e: {:?}, kqq_col0: {:?}, cq_col0: {:?}, s_col0: {:?} }}",
+        q.payload_kg,
+        q.torque_limit_nm,
+        q.viscous_nms,
+        q.coulomb_nm,
+        q.mtt,
+        q.jeff,
+        q.root_strain_coef,
+        q.minv_h,
+        q.minv_e,
+        q.kqq_col0,
+        q.cq_col0,
+        q.s_col0
+    )
+}
+
+/// Rust source for `PLANT`, the compiled [`Plant`].
+pub(crate) fn generate_plant(parts: &PlantParts) -> String {
+    let plant = &parts.plant;
+    let p = &plant.params;
+    let mut out = String::new();
+    out.push_str(
+        "/// The plant the gain table was designed for (its `[plant]`), computed on the host.\n",
+    );
+    out.push_str("pub const PLANT: ::beam_model::plant::Plant = ::beam_model::plant::Plant {\n");
+    out.push_str(&format!(
+        "    params: ::beam_model::BeamParams {{ length_m: {:?}, width_m: {:?}, thickness_m: {:?}, \
+         hub_radius_m: {:?}, density_kg_m3: {:?}, ei_nm2: {:?}, jm_kgm2: {:?}, viscous_nms: {:?}, \
+         coulomb_nm: {:?}, tip_mass_kg: {:?}, damping_ratio: {:?}, root_gauge_m: {:?}, \
+         mid_gauge_m: {:?}, torque_limit_nm: {:?} }},\n",
+        p.length_m,
+        p.width_m,
+        p.thickness_m,
+        p.hub_radius_m,
+        p.density_kg_m3,
+        p.ei_nm2,
+        p.jm_kgm2,
+        p.viscous_nms,
+        p.coulomb_nm,
+        p.tip_mass_kg,
+        p.damping_ratio,
+        p.root_gauge_m,
+        p.mid_gauge_m,
+        p.torque_limit_nm
+    ));
+    out.push_str(&format!(
+        "    modes: {},\n    base: {},\n    mqq_inv: {:?},\n    h: {:?},\n    tip_shape: {:?},\n    \
+         s_col0_per_kg: {:?},\n    mqq00: {:?},\n    max_payload_kg: {:?},\n    first_hz: &{:?},\n}};\n",
+        plant.modes,
+        point_source(&plant.base),
+        plant.mqq_inv,
+        plant.h,
+        plant.tip_shape,
+        plant.s_col0_per_kg,
+        plant.mqq00,
+        plant.max_payload_kg,
+        parts.first_hz
+    ));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The largest relative difference between two points' numbers.
+    fn rel_diff(a: &PlantPoint, b: &PlantPoint) -> f64 {
+        assert_eq!(a.payload_kg, b.payload_kg);
+        let scalars = [(a.mtt, b.mtt), (a.jeff, b.jeff)];
+        let vectors = [
+            (a.root_strain_coef, b.root_strain_coef),
+            (a.minv_h, b.minv_h),
+            (a.minv_e, b.minv_e),
+            (a.kqq_col0, b.kqq_col0),
+            (a.cq_col0, b.cq_col0),
+            (a.s_col0, b.s_col0),
+        ];
+        let mut worst = scalars
+            .iter()
+            .map(|(x, y)| (x - y).abs() / y.abs())
+            .fold(0.0, f64::max);
+        for (x, y) in vectors {
+            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (u, v) in x.iter().zip(&y) {
+                worst = worst.max((u - v).abs() / scale);
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn the_grid_holds_every_row_payload_and_steps_no_wider_than_the_limit() {
+        let rows = crate::parse(
+            "[plant]\nmodes = 3\npreset = \"aluminium\"\n\n[[row]]\ncontroller = \"pd\"\n\
+             payload_kg = 0.03\nkp = 1.0\nkd = 0.1\ncost_j = 0.0\n",
+            "g",
+        )
+        .unwrap()
+        .rows;
+        let p = PlantSpec::payloads(&rows);
+        assert_eq!(p.first(), Some(&0.0));
+        assert_eq!(p.last(), Some(&(0.03f32 as f64)));
+        assert!(p
+            .windows(2)
+            .all(|w| w[1] > w[0] && w[1] - w[0] <= PLANT_STEP_KG * 1.0001));
+    }
+
+    #[test]
+    fn the_plant_at_any_payload_is_the_model_built_there() {
+        // The shipped table's payloads (0 to 50 g), for 1 to 4 modes: at every tabulated
+        // payload and halfway between, the compiled plant against the model built there.
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml"),
+        )
+        .unwrap();
+        let rows = crate::parse(&text, "gains.toml").unwrap().rows;
+        for modes in 1..=4 {
+            let spec = PlantSpec::preset(Preset::Aluminium, modes);
+            let plant = spec.plant(&rows).unwrap().leak();
+            assert_eq!(plant.max_payload_kg(), 0.05f32 as f64);
+            let (mut exact, mut between): (f64, f64) = (0.0, 0.0);
+            for pair in plant.first_hz.windows(2) {
+                let (p, q) = (pair[0].0, pair[1].0);
+                let mid = 0.5 * (p + q);
+                exact = exact.max(rel_diff(&plant.at(p).unwrap(), &spec.point(p).unwrap()));
+                between = between.max(rel_diff(&plant.at(mid).unwrap(), &spec.point(mid).unwrap()));
+            }
+            assert_eq!(
+                plant.at(0.0),
+                Some(spec.point(0.0).unwrap()),
+                "{modes} modes"
+            );
+            // Rounding only: the mass matrices are affine in the payload.
+            assert!(exact < 1e-12, "{modes} modes: {exact:e} on the table");
+            // The first frequency interpolated as 1/f^2: exact for one mode, and the
+            // damping term it sets within 1e-5 for more.
+            let limit = if modes == 1 { 1e-12 } else { 1e-5 };
+            assert!(between < limit, "{modes} modes: {between:e} between");
+            // Outside the range there is no plant.
+            assert_eq!(plant.at(-1e-9), None);
+            assert_eq!(plant.at(plant.max_payload_kg() + 1e-9), None);
+            assert_eq!(plant.at(f64::NAN), None);
+        }
+    }
+}
