@@ -676,13 +676,13 @@ fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
     assert_eq!(moves[..4], ["15", "90", "15", "90"]);
     // A table without the controller's rows is refused, naming the file.
     let shipped_text = std::fs::read_to_string(shipped).unwrap();
-    let mut parts = shipped_text.split("[[row]]");
+    let mut parts = shipped_text.split("\n[[row]]");
     // The header and the [plant], then only the pd-ff rows.
     let head = parts.next().unwrap().to_string();
     let only_pd_ff: String = head
         + &parts
             .filter(|r| r.contains("controller = \"pd-ff\""))
-            .map(|r| format!("[[row]]{r}"))
+            .map(|r| format!("\n[[row]]{r}"))
             .collect::<String>();
     let t = dir.join("pd-ff.toml");
     std::fs::write(&t, only_pd_ff).unwrap();
