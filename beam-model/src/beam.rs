@@ -12,6 +12,11 @@ pub use beam_kinds::Preset;
 
 /// Raw physical parameters (SI units). Validate with [`Beam::try_build`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields)
+)]
 pub struct BeamParams {
     /// Beam length L, m.
     pub length_m: f64,

@@ -95,12 +95,6 @@ impl<const N: usize> From<&ModalModel<N>> for PlantPoint {
     }
 }
 
-impl From<&PlantPoint> for PlantPoint {
-    fn from(point: &PlantPoint) -> Self {
-        *point
-    }
-}
-
 /// The plant a drive is built for: the beam without payload, the model's mode count, the
 /// model's numbers at no payload, and what the payload changes.
 ///
@@ -129,23 +123,22 @@ pub struct Plant {
     pub s_col0_per_kg: [f64; MAX_MODES],
     /// `Mqq[0][0]` at no payload, kg.
     pub mqq00: f64,
-    /// The heaviest payload the drive accepts, kg (the table's heaviest row).
-    pub max_payload_kg: f64,
-    /// The first clamped frequency, Hz, at payloads (kg) from 0 to `max_payload_kg`.
+    /// The first clamped frequency, Hz, at payloads (kg) from 0 to the heaviest the drive
+    /// accepts (the table's heaviest row), sorted.
     pub first_hz: &'static [(f64, f64)],
 }
 
 impl Plant {
-    /// The heaviest payload the plant covers, kg.
+    /// The heaviest payload the plant covers, kg: the end of its frequency table.
     pub fn max_payload_kg(&self) -> f64 {
-        self.max_payload_kg
+        self.first_hz.last().map_or(0.0, |&(p, _)| p)
     }
 
     /// The plant at `payload_kg` (see [`Plant`]); `None` outside 0 to
     /// [`Plant::max_payload_kg`] (or NaN).
     pub fn at(&self, payload_kg: f64) -> Option<PlantPoint> {
         let p = payload_kg;
-        if !(p >= 0.0 && p <= self.max_payload_kg) {
+        if !(p >= 0.0 && p <= self.max_payload_kg()) {
             return None;
         }
         if p == 0.0 {

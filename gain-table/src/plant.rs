@@ -4,8 +4,8 @@
 //! ```toml
 //! [plant]
 //! modes = 3
-//! preset = "aluminium"     # a preset, each field below overriding it, or
-//! # length_m = 0.4842      # every field of a parameter file (`beam calibrate` writes one)
+//! preset = "aluminium"     # a preset, or instead every field of a parameter file
+//! # length_m = 0.4842      # (as `beam calibrate` writes one), tip_mass_kg = 0
 //! ```
 
 use crate::Row;
@@ -13,7 +13,6 @@ use beam_kinds::Preset;
 use beam_model::modal::MAX_MODES;
 use beam_model::plant::{Plant, PlantPoint};
 use beam_model::{Beam, BeamParams, ModalModel};
-use serde::{Deserialize, Serialize};
 
 /// Widest step of the table of the first clamped frequency over the payload, kg (the one
 /// number of the plant that is interpolated; see `beam_model::plant::Plant`).
@@ -29,83 +28,6 @@ pub struct PlantSpec {
     pub params: BeamParams,
     /// Flexible modes of the model (1 to 4).
     pub modes: usize,
-}
-
-/// The `[plant]` keys: the mode count, an optional preset, and `BeamParams`' fields.
-#[derive(Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Keys {
-    modes: usize,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    preset: Option<Preset>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    length_m: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    width_m: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    thickness_m: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    hub_radius_m: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    density_kg_m3: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    ei_nm2: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    jm_kgm2: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    viscous_nms: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    coulomb_nm: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    tip_mass_kg: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    damping_ratio: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    root_gauge_m: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    mid_gauge_m: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    torque_limit_nm: Option<f64>,
-}
-
-/// `BeamParams`' fields as (name, accessor) pairs, in a parameter file's order.
-type Field = (&'static str, fn(&mut BeamParams) -> &mut f64);
-const FIELDS: [Field; 14] = [
-    ("length_m", |p| &mut p.length_m),
-    ("width_m", |p| &mut p.width_m),
-    ("thickness_m", |p| &mut p.thickness_m),
-    ("hub_radius_m", |p| &mut p.hub_radius_m),
-    ("density_kg_m3", |p| &mut p.density_kg_m3),
-    ("ei_nm2", |p| &mut p.ei_nm2),
-    ("jm_kgm2", |p| &mut p.jm_kgm2),
-    ("viscous_nms", |p| &mut p.viscous_nms),
-    ("coulomb_nm", |p| &mut p.coulomb_nm),
-    ("tip_mass_kg", |p| &mut p.tip_mass_kg),
-    ("damping_ratio", |p| &mut p.damping_ratio),
-    ("root_gauge_m", |p| &mut p.root_gauge_m),
-    ("mid_gauge_m", |p| &mut p.mid_gauge_m),
-    ("torque_limit_nm", |p| &mut p.torque_limit_nm),
-];
-
-impl Keys {
-    fn values(&mut self) -> [&mut Option<f64>; 14] {
-        [
-            &mut self.length_m,
-            &mut self.width_m,
-            &mut self.thickness_m,
-            &mut self.hub_radius_m,
-            &mut self.density_kg_m3,
-            &mut self.ei_nm2,
-            &mut self.jm_kgm2,
-            &mut self.viscous_nms,
-            &mut self.coulomb_nm,
-            &mut self.tip_mass_kg,
-            &mut self.damping_ratio,
-            &mut self.root_gauge_m,
-            &mut self.mid_gauge_m,
-            &mut self.torque_limit_nm,
-        ]
-    }
 }
 
 /// A `[plant]` error: the field (if one) and why.
@@ -134,43 +56,53 @@ impl PlantSpec {
     }
 
     pub(crate) fn from_value(v: &toml::Value) -> Result<Self, PlantError> {
-        let mut keys: Keys = v
-            .clone()
-            .try_into()
-            .map_err(|e: toml::de::Error| (None, format!("[plant]: {}", e.message().trim())))?;
-        let preset = keys.preset;
-        let mut out = preset.map_or(BeamParams::table1(), BeamParams::preset);
-        for ((name, field), value) in FIELDS.iter().zip(keys.values()) {
-            match (value, preset) {
-                (Some(v), _) => *field(&mut out) = *v,
-                (None, Some(_)) => {}
-                (None, None) => {
-                    return Err((
-                        Some(name),
-                        format!("[plant]: missing `{name}` (give every field, or a `preset`)"),
-                    ))
-                }
+        let why = |m: &str| format!("[plant]: {}", m.trim());
+        let mut keys = v
+            .as_table()
+            .cloned()
+            .ok_or((None, why("must be a table")))?;
+        let modes = match keys.remove("modes") {
+            Some(toml::Value::Integer(n)) if (1..=MAX_MODES as i64).contains(&n) => n as usize,
+            Some(n) => {
+                return Err((
+                    Some("modes"),
+                    why(&format!("{n} modes: the model has 1 to 4")),
+                ))
             }
-        }
-        if out.tip_mass_kg != 0.0 {
+            None => return Err((Some("modes"), why("missing `modes`"))),
+        };
+        let preset = match keys.remove("preset") {
+            None => None,
+            Some(name) => Some(
+                name.try_into::<Preset>()
+                    .map_err(|e| (Some("preset"), why(e.message())))?,
+            ),
+        };
+        let params = match preset {
+            Some(p) if keys.is_empty() => BeamParams::preset(p),
+            Some(_) => {
+                return Err((
+                    None,
+                    why("a `preset` or the beam's fields, not both (write the preset's fields out to change one)"),
+                ))
+            }
+            None => toml::Value::Table(keys)
+                .try_into::<BeamParams>()
+                .map_err(|e| (None, why(e.message())))?,
+        };
+        if params.tip_mass_kg != 0.0 {
             return Err((
                 Some("tip_mass_kg"),
-                format!(
-                    "[plant]: {} kg: the plant carries no payload (the rows' payload_kg is it)",
-                    out.tip_mass_kg
-                ),
-            ));
-        }
-        if !(1..=beam_model::modal::MAX_MODES).contains(&keys.modes) {
-            return Err((
-                Some("modes"),
-                format!("[plant]: {} modes: the model has 1 to 4", keys.modes),
+                why(&format!(
+                    "{} kg: the plant carries no payload (the rows' payload_kg is it)",
+                    params.tip_mass_kg
+                )),
             ));
         }
         let spec = Self {
             preset,
-            params: out,
-            modes: keys.modes,
+            params,
+            modes,
         };
         spec.point(0.0)?;
         Ok(spec)
@@ -179,23 +111,13 @@ impl PlantSpec {
     /// The `[plant]` table's text: the preset alone when the beam is the preset's, else
     /// every field.
     pub fn render(&self) -> String {
-        let mut keys = Keys {
-            modes: self.modes,
-            ..Keys::default()
-        };
-        match self.preset {
-            Some(p) if BeamParams::preset(p) == self.params => keys.preset = Some(p),
-            _ => {
-                let mut params = self.params;
-                for ((_, field), value) in FIELDS.iter().zip(keys.values()) {
-                    *value = Some(*field(&mut params));
-                }
+        let beam = match self.preset {
+            Some(p) if BeamParams::preset(p) == self.params => {
+                format!("preset = \"{}\"\n", p.name())
             }
-        }
-        format!(
-            "[plant]\n{}",
-            toml::to_string(&keys).unwrap_or_else(|e| format!("# {e}\n"))
-        )
+            _ => toml::to_string(&self.params).unwrap_or_else(|e| format!("# {e}\n")),
+        };
+        format!("[plant]\nmodes = {}\n{beam}", self.modes)
     }
 
     /// The model with `payload_kg` at the tip.
@@ -278,7 +200,6 @@ impl PlantSpec {
             tip_shape: pad(&m0.tip_coef),
             s_col0_per_kg: core::array::from_fn(|i| s1[i] - base.s_col0[i]),
             mqq00: m0.mqq[0][0],
-            max_payload_kg: payloads.last().copied().unwrap_or(0.0),
             first_hz: &[],
         };
         Ok(PlantParts { plant, first_hz })
@@ -357,7 +278,7 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
     ));
     out.push_str(&format!(
         "    modes: {},\n    base: {},\n    mqq_inv: {:?},\n    h: {:?},\n    tip_shape: {:?},\n    \
-         s_col0_per_kg: {:?},\n    mqq00: {:?},\n    max_payload_kg: {:?},\n    first_hz: &{:?},\n}};\n",
+         s_col0_per_kg: {:?},\n    mqq00: {:?},\n    first_hz: &{:?},\n}};\n",
         plant.modes,
         point_source(&plant.base),
         plant.mqq_inv,
@@ -365,7 +286,6 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
         plant.tip_shape,
         plant.s_col0_per_kg,
         plant.mqq00,
-        plant.max_payload_kg,
         parts.first_hz
     ));
     out

@@ -19,10 +19,6 @@ use crate::shaper::Shaper;
 pub use beam_wire::command::{Command, Outcome, Refusal, Reply, Request, Status};
 use core::fmt;
 
-/// Heaviest payload the drive accepts, kg (the gain table's own limit; the compiled plant's
-/// payload grid, [`Plant::max_payload_kg`], is the tighter one).
-pub const MAX_PAYLOAD_KG: f32 = 1.0;
-
 /// The controller a commanded drive runs: its moves are planned, shaped moves.
 pub type CommandedController = Controller<SHAPED_PLAN_KNOTS>;
 
@@ -30,8 +26,8 @@ pub type CommandedController = Controller<SHAPED_PLAN_KNOTS>;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SetupError {
-    /// The payload is outside the plant's payload grid (the payloads the table was
-    /// designed for).
+    /// The payload is outside the plant's range, 0 to [`Plant::max_payload_kg`] (the
+    /// table's heaviest row).
     Payload,
     /// The gain table has no row for the law.
     NoGains,
@@ -163,9 +159,6 @@ impl Commander {
             }
             Command::SetPayload { kg } => {
                 ready?;
-                if !(kg.is_finite() && (0.0..=MAX_PAYLOAD_KG).contains(kg)) {
-                    return Err(Refusal::BadArgument);
-                }
                 let (law, shaper, limits) = configure(self.plant, self.table, self.kind, *kg)
                     .map_err(|e| match e {
                         SetupError::NoGains => Refusal::NoGains,
@@ -440,5 +433,31 @@ mod tests {
             c.apply(stop, &mut ctl),
             Ok(Outcome::Moving { .. })
         ));
+    }
+
+    #[test]
+    fn a_payload_is_scheduled_on_the_model_built_with_it_and_refused_past_the_table() {
+        let (c, ctl) = drive();
+        let snap = ctl.snapshot();
+        let plant = &crate::gains::PLANT;
+        let heaviest = plant.max_payload_kg() as f32;
+        for kg in [0.6 * heaviest, heaviest] {
+            let Ok(Action::SetPayload(s)) = c.prepare(&Command::SetPayload { kg }, &snap) else {
+                panic!("{kg} kg refused")
+            };
+            // The planner's inertia is the model's Mtt with the payload at the tip: the
+            // compiled plant's beam, its model built here, not read from the compiled plant.
+            let beam = crate::beam::Beam::try_build(plant.params_with(kg as f64)).unwrap();
+            let model = crate::modal::ModalModel::<3>::try_build(&beam).unwrap();
+            let rel = (s.limits.inertia_kgm2 as f64 - model.mtt).abs() / model.mtt;
+            assert!(rel < 1e-6, "{kg} kg: inertia off by {rel:e}");
+        }
+        for kg in [heaviest + 1e-3, -1e-3, f32::NAN, f32::INFINITY] {
+            assert_eq!(
+                c.prepare(&Command::SetPayload { kg }, &snap),
+                Err(Refusal::BadArgument),
+                "{kg} kg"
+            );
+        }
     }
 }

@@ -439,13 +439,7 @@ fn write_row(
     // payload is the row's.
     let payload_kg = beam.params().tip_mass_kg;
     let plant = match &a.plant.params {
-        None => gain_table::PlantSpec {
-            params: model_core::BeamParams {
-                tip_mass_kg: 0.0,
-                ..*beam.params()
-            },
-            ..gain_table::PlantSpec::preset(a.plant.preset, modes)
-        },
+        None => gain_table::PlantSpec::preset(a.plant.preset, modes),
         Some(_) => gain_table::PlantSpec::params(*beam.params(), modes),
     };
     let mut table = if path.exists() {
