@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Calibration on the drive's own log, closed back into the drive (README, "beam calibrate"):
+# Calibration on the drive's own log, closed back into the drive (docs/calibrate-your-rig.md):
 # the emulated STM32F405 runs the paper's slew under PD 20/1 against the simulated beam and
 # logs it (defmt telemetry); the model is identified from that log; gains are designed on the
 # identified model into a copy of the gain table; the firmware is rebuilt with that table and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The "another rig" calibration experiment (docs: README, "beam calibrate"): a steel strip
+# The "another rig" calibration experiment (docs/calibrate-your-rig.md): a steel strip
 # on a geared hub, PD 20/1 moves of 60 deg in 1.0 s (to calibrate on) and 90 deg in 1.2 s
 # (held out), logged at 500 Hz (the torque as the mean over each 2 ms, read 5 % high, plus
 # 5 mN m of noise); then the calibration from a guess 12-20 % off by the paper's steps and

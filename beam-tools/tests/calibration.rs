@@ -291,7 +291,7 @@ fn the_torque_replay_stays_stable_at_500_hz_with_the_hub_at_rest_under_coulomb_f
     );
 }
 
-/// The README's "another rig" (docs/other-rig.sh): a steel strip on a geared hub.
+/// docs/calibrate-your-rig.md's "another rig" (docs/other-rig.sh): a steel strip on a geared hub.
 fn other_rig() -> (BeamParams, BeamParams) {
     let (e, w, t) = (200e9, 0.03, 0.0012);
     let truth = BeamParams {

@@ -1,5 +1,5 @@
 //! Speed of the host simulation and of one controller tick (criterion; run with
-//! `cargo bench -p host-tests`). Figures are recorded in the README.
+//! `cargo bench -p host-tests`). Figures are recorded in docs/testing.md.
 
 // criterion_group! generates an undocumented public function.
 #![allow(missing_docs)]

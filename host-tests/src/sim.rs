@@ -22,7 +22,7 @@ use model_core::{
 pub const SLEW_TIME_S: f64 = paper_slew::TIME_MS as f64 / 1000.0;
 
 /// The paper's SMC gains picked by hand for the aluminium preset with 3 modes: a grid over
-/// W, A, beta ranked by the tip's settling time (README, "Control laws and the hand-picked gains").
+/// W, A, beta ranked by the tip's settling time (docs/use-the-cli.md, "Control laws and the hand-picked gains").
 pub const HAND_PICKED_SMC: SmcGains = SmcGains {
     w: 10.0,
     a: 1000.0,

@@ -34,13 +34,13 @@ pub struct CalibrateArgs {
     windows: Option<Vec<f64>>,
     /// `paper`: the paper's four steps on the torque replay; `split`: the beam first, on
     /// the strain with the hub prescribed, then the rigid body and friction with a torque
-    /// scale (see the README for how they compare).
+    /// scale (docs/calibrate-your-rig.md compares them).
     #[arg(long, value_parser = ["paper", "split"], default_value = "paper")]
     method: String,
     /// With `--method split`: the beam's density is known (kg/m^3, e.g. a handbook value for
     /// its material), and the torque's scale is fitted. Without it the torque is taken to
     /// read true, and the masses, EI and friction carry its scale error: one rig's logs
-    /// cannot tell the two apart (see the README).
+    /// cannot tell the two apart (docs/calibrate-your-rig.md).
     #[arg(long, value_name = "KG_M3")]
     known_density: Option<f64>,
     /// The weighed tip mass each log was recorded with, kg, one per log in the logs' order
