@@ -52,3 +52,17 @@ fn the_shipped_table_is_in_rendered_form() {
     let table = gain_table::parse(&text, "gains.toml").unwrap();
     assert_eq!(gain_table::render(&table), text);
 }
+
+#[test]
+fn the_steel_example_table_names_its_parameter_file_as_its_plant() {
+    // docs/steel: the table `beam optimize --params docs/steel/steel-strip.toml` wrote must
+    // carry that file's beam, field for field, and compile.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let table = gain_table::load(&root.join("docs/steel/gains.toml")).unwrap();
+    let text = std::fs::read_to_string(root.join("docs/steel/steel-strip.toml")).unwrap();
+    let params: beam_model::BeamParams = toml::from_str(&text).unwrap();
+    assert_eq!(table.plant.params, params);
+    assert_eq!(table.plant.modes, 3);
+    let source = gain_table::generate_rust(&table).unwrap();
+    assert!(source.contains("density_kg_m3: 7850.0"), "{source}");
+}

@@ -145,6 +145,15 @@ struct PlantArgs {
 }
 
 impl PlantArgs {
+    /// The `preset` of a report: the preset's name, or the parameter file's path when the
+    /// parameters come from a file (the preset is then not used).
+    fn preset_label(&self) -> String {
+        match &self.params {
+            Some(path) => path.display().to_string(),
+            None => self.preset.name().to_string(),
+        }
+    }
+
     /// What the parameters are: the file's path, or the preset's name.
     fn source(&self) -> String {
         match &self.params {
@@ -551,7 +560,7 @@ fn run_model(a: &ModelArgs) -> anyhow::Result<()> {
 fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> anyhow::Result<()> {
     let m = ModalModel::<N>::try_build(beam)?;
     let p = beam.params();
-    let preset = a.plant.preset.name();
+    let preset = &a.plant.preset_label();
     if a.json {
         let rows = |x: &[[f64; N]; N]| x.iter().map(|r| r.to_vec()).collect::<Vec<_>>();
         let v = json!({
@@ -668,7 +677,7 @@ fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
         ..a.run.options()?
     };
     let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;
-    let preset = a.plant.preset.name();
+    let preset = &a.plant.preset_label();
     let title = format!(
         "{} slew, {} preset, {} modes",
         law.name(),

@@ -539,7 +539,7 @@ fn report(
     if a.json {
         let v = json!({
             "controller": spec.kind.name(),
-            "preset": a.plant.preset.name(),
+            "preset": a.plant.preset_label(),
             "modes": a.plant.modes,
             "payload_kg": a.plant.tip_mass.unwrap_or(0.0),
             "gains": gains,

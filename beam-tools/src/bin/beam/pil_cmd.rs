@@ -85,7 +85,7 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
         })
         .with_context(|| path.display().to_string())?;
     }
-    let preset = a.plant.preset.name();
+    let preset = &a.plant.preset_label();
     let title = format!(
         "{} slew (PIL), {} preset, {} modes",
         law.name(),

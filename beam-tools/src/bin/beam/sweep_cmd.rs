@@ -231,7 +231,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
                 .collect::<serde_json::Map<_, _>>()
         };
         let mut v = json!({
-            "controller": kind, "preset": a.plant.preset.name(), "modes": a.plant.modes,
+            "controller": kind, "preset": a.plant.preset_label(), "modes": a.plant.modes,
             "cases": a.cases, "spread": a.spread, "payload_max_kg": a.payload_max, "seed": a.seed, "seconds": seconds,
             "breakdowns": bc, "baseline_breakdowns": bb, "metrics": obj(&sc), "baseline_metrics": obj(&sb),
         });
@@ -254,7 +254,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     println!(
         "{} cases in {seconds:.1} s: {kind} (gain table) vs PD 20/1, {} preset, {} mode(s), +-{:.0} % on EI, rho, Jm, friction, damping, payload 0..{} kg",
         a.cases,
-        a.plant.preset.name(),
+        a.plant.preset_label(),
         a.plant.modes,
         a.spread * 100.0,
         a.payload_max
