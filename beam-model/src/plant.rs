@@ -101,7 +101,8 @@ impl<const N: usize> From<&ModalModel<N>> for PlantPoint {
 /// A tip mass `p` enters the model as a rank-one term: `Mqq(p) = Mqq + p u u'` with
 /// `u_i = phi_i(L)`, `h(p) = h + p (r + L) u`, `Mtt(p) = Mtt + p (r + L)^2`, and `S` affinely.
 /// So [`Plant::at`] computes the plant at any payload exactly, with no integral and no
-/// matrix factorisation: `Mqq(p)^-1` by the Sherman-Morrison formula. Only the first clamped
+/// matrix factorisation: by the Sherman-Morrison formula, with `w = Mqq^-1 u`,
+/// `Mqq(p)^-1 x = Mqq^-1 x - k w (w'x)` and `k = p / (1 + p u'w)`. Only the first clamped
 /// frequency (which sets the first mode's damping term) is an eigenvalue; it is tabulated
 /// and `1/f^2` interpolated between grid points (exact for one mode, where `1/f^2` is affine
 /// in the payload).
@@ -113,12 +114,12 @@ pub struct Plant {
     pub modes: usize,
     /// The plant at no payload.
     pub base: PlantPoint,
-    /// `Mqq^-1` at no payload (zero past the model's modes).
-    pub mqq_inv: [[f64; MAX_MODES]; MAX_MODES],
     /// The coupling `h` at no payload.
     pub h: [f64; MAX_MODES],
     /// The mode shapes at the tip, `u_i = phi_i(L)`.
     pub tip_shape: [f64; MAX_MODES],
+    /// `w = Mqq^-1 u` at no payload.
+    pub tip_minv: [f64; MAX_MODES],
     /// How the first column of `S` grows with the payload, per kg.
     pub s_col0_per_kg: [f64; MAX_MODES],
     /// `Mqq[0][0]` at no payload, kg.
@@ -149,13 +150,12 @@ impl Plant {
         let arm = self.params.hub_radius_m + self.params.length_m;
         let mtt = b.mtt + p * arm * arm;
         let h: [f64; MAX_MODES] = core::array::from_fn(|i| self.h[i] + p * arm * u[i]);
-        // Sherman-Morrison: (M + p u u')^-1 = M^-1 - p w w' / (1 + p u'w), w = M^-1 u.
-        let w = linalg::mat_vec(&self.mqq_inv, u);
-        let k = p / (1.0 + p * linalg::dot(u, &w));
-        let minv: [[f64; MAX_MODES]; MAX_MODES] = core::array::from_fn(|i| {
-            core::array::from_fn(|j| self.mqq_inv[i][j] - k * w[i] * w[j])
-        });
-        let minv_h = linalg::mat_vec(&minv, &h);
+        // Sherman-Morrison (see [`Plant`]); Mqq^-1 h(p) = Mqq^-1 h + p (r + L) w.
+        let w = &self.tip_minv;
+        let k = p / (1.0 + p * linalg::dot(u, w));
+        let (wh, we) = (linalg::dot(w, &h), linalg::dot(w, &b.root_strain_coef));
+        let minv_h: [f64; MAX_MODES] =
+            core::array::from_fn(|i| b.minv_h[i] + p * arm * w[i] - k * w[i] * wh);
         let f1 = self.first_hz_at(p)?;
         let mut cq_col0 = [0.0; MAX_MODES];
         let mqq00 = self.mqq00 + p * u[0] * u[0];
@@ -165,7 +165,7 @@ impl Plant {
             mtt,
             jeff: mtt - linalg::dot(&h, &minv_h),
             minv_h,
-            minv_e: linalg::mat_vec(&minv, &b.root_strain_coef),
+            minv_e: core::array::from_fn(|i| b.minv_e[i] - k * w[i] * we),
             cq_col0,
             s_col0: core::array::from_fn(|i| b.s_col0[i] + p * self.s_col0_per_kg[i]),
             ..*b

@@ -198,7 +198,7 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
     link_rx.listen();
     let (commander, _) = model_core::commands::Commander::try_new(
         &model_core::gains::PLANT,
-        model_core::gains::GAIN_TABLE,
+        config::ROWS,
         config::CONTROLLER,
         config::PAYLOAD_KG,
     )

@@ -3,11 +3,11 @@
 //! Built once at start-up, outside the loop, and validated there: if anything here is wrong
 //! the drive never enables the amplifier. The plant and the gains come from the table
 //! compiled from `gains.toml` (or the file `BEAM_GAIN_TABLE` names): model-core's `PLANT`,
-//! whose modal model the build computed on the host, and `GAIN_TABLE`, scheduled on the
-//! payload. Nothing of the model is computed here.
+//! whose modal model the build computed on the host, and the law's rows of the table
+//! (`rows_for`), scheduled on the payload. Nothing of the model is computed here.
 
 use model_core::commands::{CommandedController, Commander, SetupError};
-use model_core::gains::{schedule_shaper, GAIN_TABLE, PLANT};
+use model_core::gains::{rows_for, schedule_shaper, GainRow, PLANT};
 use model_core::shaper::shaped_quintic;
 use model_core::{
     ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind, ParamError, ShaperError,
@@ -18,15 +18,16 @@ use model_core::{
 /// use six). One capacity for both kinds of move keeps one controller type in the binary,
 /// which the instruction counts showed to matter (two made LLVM inline less in the tick).
 pub const MOVE_KNOTS: usize = model_core::planner::SHAPED_PLAN_KNOTS;
-/// The payload this drive carries, kg.
-pub const PAYLOAD_KG: f32 = 0.0;
-/// The control law the drive runs.
-pub const CONTROLLER: LawKind = LawKind::Smc;
+include!("choice.rs");
+include!(concat!(env!("OUT_DIR"), "/button_moves.rs"));
+/// The table's rows of [`CONTROLLER`]: the only rows the board links (a drive cannot change
+/// its law).
+pub const ROWS: &[GainRow] = rows_for(CONTROLLER);
 
 /// The law `kind` for `payload_kg`: the compiled table's rows interpolated on the payload, or
 /// for PD without rows, the baseline gains. `None` if the table has no row for an SMC.
 pub fn law_for(kind: LawKind, payload_kg: f32) -> Option<Law> {
-    model_core::gains::law_for(GAIN_TABLE, kind, payload_kg)
+    model_core::gains::law_for(rows_for(kind), kind, payload_kg)
 }
 
 /// The paper's slew: -90 deg to +90 deg in 0.35 s, and back (model-core's `paper_slew`).
@@ -73,13 +74,24 @@ pub enum BuildError {
 
 /// The drive's controller ([`CONTROLLER`] at [`PAYLOAD_KG`]), idle, armed with the first move.
 pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
-    build_controller_for(CONTROLLER, PAYLOAD_KG)
+    let [first, _] = sequence()?;
+    controller_with(CONTROLLER, PAYLOAD_KG, first)
 }
 
-/// The controller for the compiled plant carrying `payload_kg`, running `kind`.
+/// The controller for the compiled plant carrying `payload_kg`, running `kind`, armed with
+/// the first move of [`sequence_for`].
 pub fn build_controller_for(
     kind: LawKind,
     payload_kg: f32,
+) -> Result<Controller<MOVE_KNOTS>, BuildError> {
+    let [first, _] = sequence_for(kind, payload_kg)?;
+    controller_with(kind, payload_kg, first)
+}
+
+fn controller_with(
+    kind: LawKind,
+    payload_kg: f32,
+    first: Spline<MOVE_KNOTS>,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let plant = PLANT.at(payload_kg as f64).ok_or(BuildError::Payload)?;
     let gains = law_for(kind, payload_kg).ok_or(BuildError::NoGains)?;
@@ -89,7 +101,6 @@ pub fn build_controller_for(
         torque_limit_nm: plant.torque_limit_nm as f32,
         ..ControllerSettings::default()
     };
-    let [first, _] = sequence_for(kind, payload_kg)?;
     Controller::try_build(settings, law, first).map_err(BuildError::Config)
 }
 
@@ -102,7 +113,7 @@ pub fn build_commanded(
     home_rad: f32,
 ) -> Result<(CommandedController, Commander), BuildError> {
     let (commander, law) =
-        Commander::try_new(&PLANT, GAIN_TABLE, kind, payload_kg).map_err(BuildError::Setup)?;
+        Commander::try_new(&PLANT, rows_for(kind), kind, payload_kg).map_err(BuildError::Setup)?;
     let settings = ControllerSettings {
         theta_home_rad: home_rad,
         torque_limit_nm: PLANT.params.torque_limit_nm as f32,
@@ -125,15 +136,20 @@ pub fn nearest<const K: usize>(moves: &[Spline<K>], theta_rad: f32) -> Option<&S
         .min_by(|a, b| distance(a).total_cmp(&distance(b)))
 }
 
-/// The move sequence the start button steps through: out to +90 deg, back to -90 deg.
+/// The move sequence the start button steps through: out to +90 deg, back to -90 deg
+/// ([`sequence_for`] of [`CONTROLLER`] at [`PAYLOAD_KG`], its knots computed by the build).
 pub fn sequence() -> Result<[Spline<MOVE_KNOTS>; 2], BuildError> {
-    sequence_for(CONTROLLER, PAYLOAD_KG)
+    let spline = |m: &model_core::shaper::MoveKnots| {
+        m.spline()
+            .map_err(|e| BuildError::Shape(ShaperError::Spline(e)))
+    };
+    Ok([spline(&BUTTON_MOVES[0])?, spline(&BUTTON_MOVES[1])?])
 }
 
 /// The move sequence for law `kind` at `payload_kg`: the paper's slew out and back, shaped by
 /// the law's table shaper (if any), which lengthens each move by the shaper's duration.
 pub fn sequence_for(kind: LawKind, payload_kg: f32) -> Result<[Spline<MOVE_KNOTS>; 2], BuildError> {
-    let shaper = schedule_shaper(GAIN_TABLE, kind, payload_kg);
+    let shaper = schedule_shaper(rows_for(kind), kind, payload_kg);
     let plan = |from, to| {
         shaped_quintic(from, to, SLEW_TIME_S, &shaper, Timing::Stretch).map_err(BuildError::Shape)
     };
@@ -157,5 +173,18 @@ mod tests {
         // The sequence closes: each move starts where the previous one ends.
         assert_eq!(out.end(), back.start());
         assert_eq!(back.end(), out.start());
+    }
+
+    #[test]
+    fn the_buttons_moves_built_on_the_host_are_the_moves_shaped_at_run_time() {
+        // The build computed the knots on the host; shaping the moves here again must give
+        // the same splines, bit for bit.
+        assert_eq!(
+            sequence().unwrap(),
+            sequence_for(CONTROLLER, PAYLOAD_KG).unwrap()
+        );
+        let c = build_controller().unwrap();
+        let by_law = build_controller_for(CONTROLLER, PAYLOAD_KG).unwrap();
+        assert_eq!(c.spline(), by_law.spline());
     }
 }

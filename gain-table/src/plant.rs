@@ -16,7 +16,7 @@ use beam_model::{Beam, BeamParams, ModalModel};
 
 /// Widest step of the table of the first clamped frequency over the payload, kg (the one
 /// number of the plant that is interpolated; see `beam_model::plant::Plant`).
-pub const PLANT_STEP_KG: f64 = 0.0025;
+pub const PLANT_STEP_KG: f64 = 0.005;
 
 /// The beam a table's gains were designed for.
 #[derive(Clone, Debug, PartialEq)]
@@ -189,15 +189,9 @@ impl PlantSpec {
             params: self.params,
             modes: N,
             base,
-            mqq_inv: core::array::from_fn(|i| {
-                if i < N {
-                    pad(&m0.mqq_inv[i])
-                } else {
-                    [0.0; MAX_MODES]
-                }
-            }),
             h: pad(&m0.h),
             tip_shape: pad(&m0.tip_coef),
+            tip_minv: pad(&beam_model::linalg::mat_vec(&m0.mqq_inv, &m0.tip_coef)),
             s_col0_per_kg: core::array::from_fn(|i| s1[i] - base.s_col0[i]),
             mqq00: m0.mqq[0][0],
             first_hz: &[],
@@ -277,13 +271,13 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
         p.torque_limit_nm
     ));
     out.push_str(&format!(
-        "    modes: {},\n    base: {},\n    mqq_inv: {:?},\n    h: {:?},\n    tip_shape: {:?},\n    \
+        "    modes: {},\n    base: {},\n    h: {:?},\n    tip_shape: {:?},\n    tip_minv: {:?},\n    \
          s_col0_per_kg: {:?},\n    mqq00: {:?},\n    first_hz: &{:?},\n}};\n",
         plant.modes,
         point_source(&plant.base),
-        plant.mqq_inv,
         plant.h,
         plant.tip_shape,
+        plant.tip_minv,
         plant.s_col0_per_kg,
         plant.mqq00,
         parts.first_hz
@@ -364,9 +358,10 @@ mod tests {
             );
             // Rounding only: the mass matrices are affine in the payload.
             assert!(exact < 1e-12, "{modes} modes: {exact:e} on the table");
-            // The first frequency interpolated as 1/f^2: exact for one mode, and the
-            // damping term it sets within 1e-5 for more.
-            let limit = if modes == 1 { 1e-12 } else { 1e-5 };
+            // The first frequency interpolated as 1/f^2 every 5 g: exact for one mode; for
+            // more, the first mode's damping term it sets is within 5e-5 (3.0e-5 measured
+            // for the aluminium beam, far inside what a damping ratio is known to).
+            let limit = if modes == 1 { 1e-12 } else { 5e-5 };
             assert!(between < limit, "{modes} modes: {between:e} between");
             // Outside the range there is no plant.
             assert_eq!(plant.at(-1e-9), None);

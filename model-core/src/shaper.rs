@@ -201,6 +201,45 @@ pub enum Timing {
     EndOnTime,
 }
 
+/// The knots a shaped quintic is built from ([`shaped_quintic_knots`]): plain data, so a
+/// build script can compute a fixed move on the host and a drive rebuild the very same
+/// spline from constants ([`MoveKnots::spline`]) without linking the shaping.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MoveKnots {
+    /// The paper's unshaped quintic.
+    Quintic {
+        /// Start, rad.
+        from: f32,
+        /// End, rad.
+        to: f32,
+        /// Duration, s.
+        duration_s: f32,
+    },
+    /// Knot states `(time, position, velocity, acceleration)`, the first `len` of them.
+    States {
+        /// The states.
+        states: [(f32, f32, f32, f32); 2 * MAX_IMPULSES],
+        /// How many are used.
+        len: usize,
+    },
+}
+
+impl MoveKnots {
+    /// The spline (what [`shaped_quintic`] returns for the same move).
+    pub fn spline<const K: usize>(&self) -> Result<Spline<K>, SplineError> {
+        match *self {
+            MoveKnots::Quintic {
+                from,
+                to,
+                duration_s,
+            } => Spline::quintic(from, to, duration_s),
+            MoveKnots::States { states, len } => {
+                Spline::try_from_states(states.get(..len).ok_or(SplineError::TooFewKnots)?)
+            }
+        }
+    }
+}
+
 /// The minimum-jerk move from `from` to `to`, shaped by `shaper`. With
 /// [`Timing::EndOnTime`] it ends at `duration_s`; with [`Timing::Stretch`], the shaper's
 /// length later. `K` must hold twice the shaper's impulses (6 for ZVD and EI).
@@ -211,9 +250,26 @@ pub fn shaped_quintic<const K: usize>(
     shaper: &Shaper,
     timing: Timing,
 ) -> Result<Spline<K>, ShaperError> {
+    shaped_quintic_knots(from, to, duration_s, shaper, timing)?
+        .spline()
+        .map_err(ShaperError::Spline)
+}
+
+/// The knots of [`shaped_quintic`]'s move.
+pub fn shaped_quintic_knots(
+    from: f32,
+    to: f32,
+    duration_s: f32,
+    shaper: &Shaper,
+    timing: Timing,
+) -> Result<MoveKnots, ShaperError> {
     let impulses = shaper.impulses()?;
     if shaper.kind == ShaperKind::None {
-        return Spline::quintic(from, to, duration_s).map_err(ShaperError::Spline);
+        return Ok(MoveKnots::Quintic {
+            from,
+            to,
+            duration_s,
+        });
     }
     let length = impulses.duration_s();
     let base = match timing {
@@ -255,7 +311,10 @@ pub fn shaped_quintic<const K: usize>(
     // The ends are exactly at rest at the move's end points.
     points[0] = (0.0, from, 0.0, 0.0);
     points[n - 1] = (breaks[n - 1] as f32, to, 0.0, 0.0);
-    Spline::try_from_states(&points[..n]).map_err(ShaperError::Spline)
+    Ok(MoveKnots::States {
+        states: points,
+        len: n,
+    })
 }
 
 /// Sorts `breaks` and merges those closer than [`MIN_BREAK_S`] into the first of each run,
