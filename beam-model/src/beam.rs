@@ -7,8 +7,8 @@
 /// Young's modulus of aluminium used by the `aluminium` preset, Pa.
 pub const ALUMINIUM_E_PA: f64 = 69.0e9;
 
-pub use crate::error::{ParamError, ParamErrorKind};
 pub use beam_kinds::Preset;
+use core::fmt;
 
 /// Raw physical parameters (SI units). Validate with [`Beam::try_build`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -225,3 +225,43 @@ mod tests {
         );
     }
 }
+
+/// What is wrong with a parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ParamErrorKind {
+    /// NaN or infinite.
+    NonFinite,
+    /// Must be strictly positive.
+    NotPositive,
+    /// Must be zero or positive.
+    Negative,
+    /// Outside its documented range.
+    OutOfRange,
+}
+
+/// A rejected value: which field and why. The field is named as in the structure being
+/// validated: a [`BeamParams`](crate::beam::BeamParams) field, a gain of a control law
+/// (`w`, `kp`, `c`, ...) or a controller setting (`torque_limit_nm`, `adc.bits`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ParamError {
+    /// The field's name.
+    pub field: &'static str,
+    /// The reason.
+    pub kind: ParamErrorKind,
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let why = match self.kind {
+            ParamErrorKind::NonFinite => "must be finite",
+            ParamErrorKind::NotPositive => "must be > 0",
+            ParamErrorKind::Negative => "must be >= 0",
+            ParamErrorKind::OutOfRange => "is out of range",
+        };
+        write!(f, "`{}` {}", self.field, why)
+    }
+}
+
+impl core::error::Error for ParamError {}

@@ -5,18 +5,16 @@
 //! gain table's build script compiles the plant into the drive as constants, so the drive
 //! links none of the model's soft-float code) or when a host tool sets up a simulation.
 //!
-//! - [`beam`]: physical parameters, the two presets, validation.
+//! - [`beam`]: physical parameters, the two presets, validation ([`ParamError`]).
 //! - [`modal`]: the assumed-modes model (mode shapes, mass, stiffness and foreshortening
-//!   matrices, frequencies) of docs/design.md, section 2.
+//!   matrices, frequencies) of docs/design.md, section 2 ([`ModelError`]).
 //! - [`plant`]: the model reduced to what the control laws and the planner read, at one
 //!   payload ([`plant::PlantPoint`]) and over a payload grid ([`plant::Plant`]).
 //! - [`linalg`]: the small dense linear algebra the model needs.
-//! - [`error`]: the errors of the parameters and the model.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
 pub mod beam;
-pub mod error;
 pub mod linalg;
 pub mod modal;
 pub mod plant;
@@ -26,6 +24,7 @@ pub mod plant;
 pub const DRIVE_TORQUE_LIMIT_NM: f32 = 10.0;
 
 pub use beam::{Beam, BeamParams, Preset};
-pub use error::{ModelError, ParamError, ParamErrorKind};
+pub use beam::{ParamError, ParamErrorKind};
 pub use modal::ModalModel;
+pub use modal::ModelError;
 pub use plant::{Plant, PlantPoint};

@@ -7,9 +7,9 @@
 //! configuration: built once by [`ModalModel::try_build`], then only read.
 
 use crate::beam::Beam;
-pub use crate::error::ModelError;
 use crate::linalg::{self, Mat};
 use core::f64::consts::PI;
+use core::fmt;
 
 /// Roots b_i of `cos b cosh b = -1`, the clamped-free eigenvalues (docs/design.md, section 2).
 pub const MODE_ROOTS: [f64; 4] = [1.875_104_07, 4.694_091_13, 7.854_757_44, 10.995_540_73];
@@ -259,6 +259,32 @@ impl<const N: usize> ModalModel<N> {
         b * b / (2.0 * PI * p.length_m * p.length_m) * libm::sqrt(p.ei_nm2 / self.rho_kg_m)
     }
 }
+
+/// Why a model could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModelError {
+    /// The mode count must be 1 to 4.
+    UnsupportedModeCount(usize),
+    /// A mass matrix came out singular or indefinite (cannot happen for valid parameters).
+    NotPositiveDefinite(&'static str),
+}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ModelError::UnsupportedModeCount(n) => {
+                write!(
+                    f,
+                    "{n} modes requested: the model supports 1 to {MAX_MODES}"
+                )
+            }
+            ModelError::NotPositiveDefinite(what) => write!(f, "{what} is not positive definite"),
+        }
+    }
+}
+
+impl core::error::Error for ModelError {}
 
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)]

@@ -5,9 +5,40 @@
 //! Faults of a running controller are not errors: they are latched
 //! [`FaultFlags`](crate::FaultFlags), reported in every [`TorqueCommand`](crate::TorqueCommand).
 
-use crate::shaper::ShaperError;
-pub use beam_model::error::{ModelError, ParamError, ParamErrorKind};
+pub use beam_model::{ModelError, ParamError, ParamErrorKind};
 use core::fmt;
+
+/// Why a shaper cannot be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ShaperError {
+    /// The frequency is not a positive, finite number.
+    Frequency,
+    /// The damping ratio is outside [0, 1) (or so large the train has a non-positive impulse).
+    Damping,
+    /// EI's tolerance is outside (0, 0.5).
+    Tolerance,
+    /// The shaper is as long as the move or longer, so the base move cannot be shortened.
+    TooLong,
+    /// The shaped move does not fit the spline's knot capacity.
+    Spline(SplineError),
+}
+
+impl fmt::Display for ShaperError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ShaperError::Frequency => f.write_str("the shaper frequency must be positive"),
+            ShaperError::Damping => f.write_str("the shaper damping ratio must be in [0, 1)"),
+            ShaperError::Tolerance => f.write_str("the EI tolerance must be in (0, 0.5)"),
+            ShaperError::TooLong => {
+                f.write_str("the shaper is as long as the move: it cannot end on time")
+            }
+            ShaperError::Spline(e) => write!(f, "shaped move: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for ShaperError {}
 
 /// Why a spline could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -8,7 +8,8 @@
 //! - [`beam`], [`modal`], [`linalg`], [`plant`]: the beam's parameters, its assumed-modes
 //!   model and the plant the drive is built for, from the `beam-model` crate (re-exported);
 //!   [`gains::PLANT`] is the plant compiled in with the gain table.
-//! - [`spline`]: the rest-to-rest reference (quintic and multi-knot C2).
+//! - [`spline`]: the rest-to-rest reference (quintic and multi-knot C2); [`knots`]: the
+//!   knot capacity of each kind of move.
 //! - [`shaper`]: ZV, ZVD and EI input shapers, and shaped moves as splines.
 //! - [`measure`]: raw counts and ADC codes to angle, velocity and strain.
 //! - [`law`]: the paper's SMC, the strain-augmented SMC and the PD baseline.
@@ -63,6 +64,7 @@ pub mod commands;
 pub mod controller;
 pub mod error;
 pub mod gains;
+pub mod knots;
 pub mod law;
 pub mod measure;
 pub mod planner;

@@ -22,22 +22,10 @@ use crate::plant::PlantPoint;
 use crate::shaper::{shape, Shaper, ShaperKind};
 use crate::spline::{Peaks, Spline};
 
-/// Most waypoints a move passes through (the target included): the wire protocol's limit,
-/// defined once there, so a command that decodes is a command the planner takes.
-pub use beam_wire::command::MAX_WAYPOINTS;
+pub use crate::knots::{BASE_KNOTS, MAX_WAYPOINTS, PLAN_KNOTS, SHAPED_PLAN_KNOTS};
 
 /// Shortest segment between waypoints, s: one tick.
 pub const MIN_SEGMENT_S: f64 = 1e-3;
-
-/// Knots of an unshaped planned move: the start and the waypoints.
-pub const PLAN_KNOTS: usize = MAX_WAYPOINTS + 1;
-
-/// Knots of a planned move's base (unshaped) spline: the start, the waypoints, and room for
-/// the one more knot a stop adds (see [`plan_stop`]).
-pub const BASE_KNOTS: usize = PLAN_KNOTS + 1;
-
-/// Knots of a shaped planned move: every base knot shifted by each of the shaper's impulses.
-pub const SHAPED_PLAN_KNOTS: usize = BASE_KNOTS * crate::shaper::MAX_IMPULSES;
 
 /// What a planned move must keep to.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -15,10 +15,9 @@
 
 use crate::spline::{Spline, SplineError};
 pub use beam_kinds::ShaperKind;
-use core::fmt;
 
-/// Most impulses any shaper here has.
-pub const MAX_IMPULSES: usize = 3;
+pub use crate::error::ShaperError;
+pub use crate::knots::MAX_IMPULSES;
 
 /// Breaks of a shaped move closer than this are merged into one, s. A piece a few
 /// microseconds long, rebuilt in `f32` from its end states, divides position rounding by
@@ -117,38 +116,6 @@ impl Shaper {
         Ok(Impulses { amps, times, len })
     }
 }
-
-/// Why a shaper cannot be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ShaperError {
-    /// The frequency is not a positive, finite number.
-    Frequency,
-    /// The damping ratio is outside [0, 1) (or so large the train has a non-positive impulse).
-    Damping,
-    /// EI's tolerance is outside (0, 0.5).
-    Tolerance,
-    /// The shaper is as long as the move or longer, so the base move cannot be shortened.
-    TooLong,
-    /// The shaped move does not fit the spline's knot capacity.
-    Spline(SplineError),
-}
-
-impl fmt::Display for ShaperError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ShaperError::Frequency => f.write_str("the shaper frequency must be positive"),
-            ShaperError::Damping => f.write_str("the shaper damping ratio must be in [0, 1)"),
-            ShaperError::Tolerance => f.write_str("the EI tolerance must be in (0, 0.5)"),
-            ShaperError::TooLong => {
-                f.write_str("the shaper is as long as the move: it cannot end on time")
-            }
-            ShaperError::Spline(e) => write!(f, "shaped move: {e}"),
-        }
-    }
-}
-
-impl core::error::Error for ShaperError {}
 
 /// An impulse train: amplitudes summing to one at increasing times from zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -345,14 +312,14 @@ pub fn shape<const K: usize, const K2: usize>(
     shaper: &Shaper,
 ) -> Result<Spline<K2>, ShaperError> {
     let impulses = shaper.impulses()?;
-    let mut all = [0.0f64; crate::planner::SHAPED_PLAN_KNOTS];
+    let mut all = [0.0f64; crate::knots::SHAPED_PLAN_KNOTS];
     let mut count = 0;
     for (_, ti) in impulses.iter() {
         for tk in move_.knot_times() {
             let slot =
                 all.get_mut(count)
                     .ok_or(ShaperError::Spline(SplineError::TooManyKnots {
-                        capacity: crate::planner::SHAPED_PLAN_KNOTS,
+                        capacity: crate::knots::SHAPED_PLAN_KNOTS,
                     }))?;
             *slot = ti + tk as f64;
             count += 1;
