@@ -241,7 +241,7 @@ pub enum ParamErrorKind {
 }
 
 /// A rejected value: which field and why. The field is named as in the structure being
-/// validated: a [`BeamParams`](crate::beam::BeamParams) field, a gain of a control law
+/// validated: a [`BeamParams`] field, a gain of a control law
 /// (`w`, `kp`, `c`, ...) or a controller setting (`torque_limit_nm`, `adc.bits`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

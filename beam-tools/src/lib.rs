@@ -1,25 +1,21 @@
-//! The tools of the slewing-beam toolchain, behind the `beam` command line: gain design
-//! ([`optimize`]), parameter identification from a logged move ([`calibrate`]) and the
-//! model against a log ([`replay`]), command scripts for a commanded drive
-//! ([`drive_script`]), Monte Carlo robustness ([`sweep`]), the processor-in-the-loop host
-//! ([`pil_host`]), a drive on a serial port ([`serial_drive`]), the drive's telemetry
-//! ([`telemetry`]), parameter files ([`params_file`]), gain tables read at run time
-//! ([`table`]), plots ([`plot`]) and output files written whole ([`files`]).
+//! The tools of the slewing-beam toolchain, behind the `beam` command line, by role:
+//!
+//! - [`identify`]: the model's parameters from logged moves (`beam calibrate`: the paper's
+//!   steps in [`identify::calibrate`], the split method in [`identify::split`]), the model
+//!   against a log ([`identify::replay`]), and the small least squares they share
+//!   ([`identify::lsq`]).
+//! - [`design`]: gains by constrained optimisation ([`design::optimize`]), Monte Carlo
+//!   robustness ([`design::sweep`]) and gain tables read at run time ([`design::table`]).
+//! - [`link`]: the drive's end points on the host: the processor-in-the-loop host
+//!   ([`link::pil_host`]), a drive on a serial port ([`link::serial_drive`]), command scripts
+//!   ([`link::drive_script`]) and the drive's telemetry ([`link::telemetry`]).
+//! - [`io`]: parameter files ([`io::params_file`]), plots ([`io::plot`]) and output files
+//!   written whole ([`io::files`]).
 //!
 //! They all run model-core's controller against the simulated world of `host-tests`.
 #![forbid(unsafe_code)]
 
-pub mod calibrate;
-pub mod drive_script;
-pub mod files;
-pub mod lsq;
-pub mod optimize;
-pub mod params_file;
-pub mod pil_host;
-pub mod plot;
-pub mod replay;
-pub mod serial_drive;
-pub mod split;
-pub mod sweep;
-pub mod table;
-pub mod telemetry;
+pub mod design;
+pub mod identify;
+pub mod io;
+pub mod link;

@@ -4,8 +4,8 @@
 //! identified model must recover the rigid-body inertia within 5 % and the first hub-free
 //! frequency within 2 %.
 
-use beam_tools::calibrate::{calibrate, find_windows, read_log, read_log_with, Columns};
-use beam_tools::files::write_trace_csv;
+use beam_tools::identify::calibrate::{calibrate, find_windows, read_log, read_log_with, Columns};
+use beam_tools::io::files::write_trace_csv;
 use host_tests::sim::{simulate, SimOptions};
 use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
 
@@ -61,8 +61,13 @@ fn calibration_recovers_the_plant_from_its_log() {
         w.settle_end_s > w.end_s + 0.25 - 1e-9 && w.settle_end_s <= 0.8,
         "{w:?}"
     );
-    let (found, steps) =
-        calibrate::<3>(&log, &guess, beam_tools::calibrate::DEFAULT_EVALS, &w).unwrap();
+    let (found, steps) = calibrate::<3>(
+        &log,
+        &guess,
+        beam_tools::identify::calibrate::DEFAULT_EVALS,
+        &w,
+    )
+    .unwrap();
     for s in &steps {
         eprintln!(
             "{:20} {:?} rms theta {:.2e} rad, strain {:.2} ue",
@@ -91,8 +96,8 @@ fn calibration_recovers_the_plant_from_its_log() {
     // The fit explains the log down to about the encoder's resolution.
     assert!(steps[2].rms_theta_err_rad < 5.0 * count, "{:?}", steps[2]);
     // How well each parameter is determined, and which trade against each other.
-    let exps = [beam_tools::calibrate::Experiment::new(log, w)];
-    let (errs, trades) = beam_tools::calibrate::uncertainty::<3>(&found, &exps).unwrap();
+    let exps = [beam_tools::identify::calibrate::Experiment::new(log, w)];
+    let (errs, trades) = beam_tools::identify::calibrate::uncertainty::<3>(&found, &exps).unwrap();
     let truth_of = |name: &str| match name {
         "jm_kgm2" => truth.jm_kgm2,
         "density_kg_m3" => truth.density_kg_m3,
@@ -178,7 +183,7 @@ fn a_log_from_another_rig_reads_with_its_own_columns_and_units() {
         assert!(e.contains(says), "{spec}: {e}");
     }
     // Windows by hand: in order and inside the log, or refused.
-    use beam_tools::calibrate::Windows;
+    use beam_tools::identify::calibrate::Windows;
     assert!(Windows::given(0.0, 0.3, 0.6, &log).is_ok());
     for (a, b, c) in [
         (0.3, 0.1, 0.6),
@@ -204,8 +209,8 @@ fn the_true_model_replayed_on_its_own_log_explains_it() {
     // discriminates. (After the move the logged strain rings at the closed loop's coupled
     // mode, about 4.4 Hz; the prescribed replay of the wrong beam mixes in its own clamped
     // mode, near 4.9 Hz instead of 5.5, and moves away from the log.)
-    use beam_tools::params_file::Sensors;
-    use beam_tools::replay::replay_report;
+    use beam_tools::identify::replay::replay_report;
+    use beam_tools::io::params_file::Sensors;
     let truth = BeamParams::aluminium();
     let run = simulate(
         &model(truth),
@@ -232,7 +237,8 @@ fn the_true_model_replayed_on_its_own_log_explains_it() {
     let bad = replay_report::<3>(&wrong, &Sensors::default(), &log, &w).unwrap();
     eprintln!("{bad:?}");
     assert!(bad.strain_rel_err > 2.0 * good.strain_rel_err, "{bad:?}");
-    let off = |r: &beam_tools::replay::ReplayReport| (r.freq_model_hz.unwrap() - fl).abs();
+    let off =
+        |r: &beam_tools::identify::replay::ReplayReport| (r.freq_model_hz.unwrap() - fl).abs();
     assert!(off(&bad) > 3.0 * off(&good), "{bad:?}");
 }
 
@@ -244,7 +250,7 @@ fn the_torque_replay_stays_stable_at_500_hz_with_the_hub_at_rest_under_coulomb_f
     // at the plant's stable step instead; here it must run a 500 Hz log to the end with the
     // hub at rest. (The chatter is in the rate, about 2e-4 rad/s: the angle alone would not
     // show it, which is why this test is a smoke test and the physics test the proof.)
-    use beam_tools::calibrate::replay;
+    use beam_tools::identify::calibrate::replay;
     let truth = BeamParams {
         coulomb_nm: 0.06,
         ..BeamParams::aluminium()
@@ -328,7 +334,7 @@ fn other_rig_log(
     deg: f64,
     time_s: f32,
     seed: u64,
-) -> beam_tools::calibrate::Log {
+) -> beam_tools::identify::calibrate::Log {
     let run = simulate(
         &model(truth),
         Law::Pd(PdGains::BASELINE),
@@ -378,10 +384,10 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     // root strain. The density is the level's one absolute fact (handbook steel); with the
     // torque trusted instead, every mass and EI must come out scaled by the torque's error
     // and nothing else (tests/physics.rs: that is the only thing one rig cannot tell).
-    use beam_tools::calibrate::Experiment;
-    use beam_tools::params_file::Sensors;
-    use beam_tools::replay::replay_report;
-    use beam_tools::split::{calibrate_split, Reference, SplitOptions};
+    use beam_tools::identify::calibrate::Experiment;
+    use beam_tools::identify::replay::replay_report;
+    use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions};
+    use beam_tools::io::params_file::Sensors;
     let (truth, guess) = other_rig();
     let log = other_rig_log(truth, 60.0, 1.0, 12345);
     let windows = find_windows(&log).unwrap();
@@ -419,7 +425,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
         other => panic!("an interval for {other}, which this test does not know"),
     };
     assert!(report.uncertainty.len() >= 6, "{report:?}");
-    let covers = |r: &beam_tools::split::SplitReport, what: &str| {
+    let covers = |r: &beam_tools::identify::split::SplitReport, what: &str| {
         for u in &r.uncertainty {
             let z = (u.value - truth_of(u.name)).abs() / u.std_err;
             eprintln!(
@@ -461,9 +467,9 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     // strain (a Kalman correction), the balance finds the torque's scale within 5 %, and Jm
     // no longer depends on the hub's smoothing, here or forwards. The beam's own fit still
     // feels the chatter (the damping is poorly determined), and its interval says so.
-    let flagged = |r: &beam_tools::split::SplitReport| {
+    let flagged = |r: &beam_tools::identify::split::SplitReport| {
         let w = r.window_shift.iter().find(|w| w.name == "jm_kgm2").unwrap();
-        w.shift > beam_tools::split::WINDOW_WARNING * w.noise
+        w.shift > beam_tools::identify::split::WINDOW_WARNING * w.noise
     };
     assert!(!flagged(&report), "{report:?}");
     assert!(!report.replay_drifts(), "{report:?}");
@@ -515,7 +521,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     assert!((fo.coulomb_nm - truth.coulomb_nm).abs() < 0.005, "{fo:?}");
     assert!(matches!(
         calibrate_split::<3>(&both[..1], &guess, &options_offset),
-        Err(beam_tools::calibrate::CalibrateError::OneWay)
+        Err(beam_tools::identify::calibrate::CalibrateError::OneWay)
     ));
 
     // The torque trusted: the same beam up to the torque's 5 %.
@@ -544,8 +550,8 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
     // clamped at the tip (0.6 of the strip's own mass). The torque still reads 5 % high and
     // nothing else is known: the frequency's fall with the known mass gives the density,
     // and from it EI, the torque's scale and the hub.
-    use beam_tools::calibrate::{CalibrateError, Experiment};
-    use beam_tools::split::{calibrate_split, Reference, SplitOptions};
+    use beam_tools::identify::calibrate::{CalibrateError, Experiment};
+    use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions};
     let (truth, guess) = other_rig();
     let loaded = BeamParams {
         tip_mass_kg: 0.1,
@@ -613,7 +619,7 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
     // Every interval holds the truth, for this and other draws of the torque's noise.
     // (Before the prescribed hub was interpolated between samples, the damping came out
     // 7 % low at 7 of its sigmas here: the hub reached the loaded beam half a sample late.)
-    let covers = |report: &beam_tools::split::SplitReport, seed: u64| {
+    let covers = |report: &beam_tools::identify::split::SplitReport, seed: u64| {
         for u in &report.uncertainty {
             let truth = match u.name {
                 "density_kg_m3" => truth.density_kg_m3,

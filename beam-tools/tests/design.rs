@@ -1,7 +1,7 @@
 //! Gain design: the optimiser is deterministic and honours its constraints, and the shipped
 //! gain table (compiled into model-core) does what the table claims on the plant.
 
-use beam_tools::optimize::{default_params, evaluate, optimize, Spec};
+use beam_tools::design::optimize::{default_params, evaluate, optimize, Spec};
 use host_tests::metrics::{metrics, CostSpec};
 use host_tests::sim::{simulate, SimOptions, HAND_PICKED_SMC};
 use model_core::gains::{schedule, GAIN_TABLE};

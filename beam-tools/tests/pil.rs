@@ -5,9 +5,9 @@
 //! built first (`cargo build -p firmware --bin pil --release --target thumbv7em-none-eabihf`,
 //! a no-op when it is up to date) so the test never runs a stale binary.
 
-use beam_tools::calibrate::read_log;
-use beam_tools::pil_host::{build_plugin, paths, run_pil, PilConfig, PilDrive};
-use beam_tools::telemetry::{first_move, write_csv};
+use beam_tools::identify::calibrate::read_log;
+use beam_tools::link::pil_host::{build_plugin, paths, run_pil, PilConfig, PilDrive};
+use beam_tools::link::telemetry::{first_move, write_csv};
 use beam_wire::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
 use firmware::config::build_controller_for;
 use host_tests::metrics::metrics;
@@ -292,7 +292,7 @@ fn a_commanded_session_runs_on_the_firmware_exactly_as_on_the_host() {
     if !qemu_present() {
         return;
     }
-    use beam_tools::pil_host::run_pil_commands;
+    use beam_tools::link::pil_host::run_pil_commands;
     use beam_wire::command::Outcome;
     use host_tests::commanded::session_script;
     let cfg = config(LawKind::PdFf, true);

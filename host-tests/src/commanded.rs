@@ -102,7 +102,7 @@ impl CommandedRun {
 }
 
 /// A drive that takes commands: model-core's handler on the host, or the firmware under
-/// QEMU (`beam_tools::pil_host`).
+/// QEMU (`beam_tools::link::pil_host`).
 pub trait CommandedDrive {
     /// Carries out a command before the next tick.
     fn handle(&mut self, request: &Request) -> Result<Reply, SimError>;

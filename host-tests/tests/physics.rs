@@ -315,7 +315,7 @@ fn scaling_every_mass_stiffness_friction_and_the_torque_together_changes_no_moti
     // the torque. So a beam with Jm, density, EI, both friction terms (and the torque
     // limit) times s, driven by the torque times s, moves exactly as the original: the
     // reason calibration from one rig's logs cannot tell a torque scale error from the
-    // masses and stiffness without one absolute fact (beam_tools::split).
+    // masses and stiffness without one absolute fact (beam_tools::identify::split).
     let base = BeamParams {
         coulomb_nm: 0.03,
         viscous_nms: 0.002,

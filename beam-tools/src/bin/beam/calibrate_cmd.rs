@@ -2,12 +2,12 @@
 
 use crate::PlantArgs;
 use anyhow::{bail, Context};
-use beam_tools::calibrate::{
+use beam_tools::identify::calibrate::{
     calibrate_many, find_windows, read_log_with, Columns, Experiment, LogFit, StepReport, Windows,
     DEFAULT_EVALS,
 };
-use beam_tools::params_file::Sensors;
-use beam_tools::split::{calibrate_split, Reference, SplitOptions};
+use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions};
+use beam_tools::io::params_file::Sensors;
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
 use serde_json::json;
@@ -91,7 +91,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         bail!("--known-density, --fit-gauge-position and --torque-offset apply to --method split");
     }
     if let Some(path) = &a.plot {
-        beam_tools::plot::check_extension(path)?;
+        beam_tools::io::plot::check_extension(path)?;
     }
     let guess = *crate::beam(&a.plant)?.params();
     let tip_masses: Vec<Option<f64>> = match a.tip_masses.as_deref() {
@@ -156,12 +156,12 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     };
     if let Some(path) = &a.out {
         let comment = format!("identified by beam calibrate from {}", names.join(", "));
-        let text = beam_tools::params_file::render_with(
+        let text = beam_tools::io::params_file::render_with(
             &found,
             split.as_ref().map(|s| &s.sensors),
             &comment,
         );
-        beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
+        beam_tools::io::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
             .with_context(|| path.display().to_string())?;
     }
     if let Some(path) = &a.plot {
@@ -170,7 +170,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             let target = numbered(path, i);
             let traces = with_modes!(a.plant.modes, traces_n(&e.params(&found), &sensors, &e.log))?;
             let title = format!("identified model against {name}");
-            beam_tools::files::plot_atomically(&target, |tmp| traces.plot(&title, tmp))?;
+            beam_tools::io::files::plot_atomically(&target, |tmp| traces.plot(&title, tmp))?;
         }
     }
     let (fm, gm) = with_modes!(a.plant.modes, summary(&found, &guess))?;
@@ -268,7 +268,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             s.replay_rms_theta_err_rad
         );
     }
-    let [lo, hi] = beam_tools::split::WINDOW_FACTORS;
+    let [lo, hi] = beam_tools::identify::split::WINDOW_FACTORS;
     let smoothing = format!("{lo:.1} or {hi:.1} times the width");
     match &spread {
         Some((errs, trades)) => {
@@ -299,7 +299,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
         );
     }
     for w in split.iter().flat_map(|s| &s.window_shift) {
-        if w.shift > beam_tools::split::WINDOW_WARNING * w.noise {
+        if w.shift > beam_tools::identify::split::WINDOW_WARNING * w.noise {
             println!(
                 "  warning: {} moves {:.1e} when the prescribed hub is smoothed over {smoothing}, {:.0} times its noise: how the hub's fast motion is modelled limits it on these logs more than their noise (its interval counts the shift)",
                 w.name,
@@ -307,7 +307,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
                 w.shift / w.noise
             );
         }
-        if w.encoder > beam_tools::split::WINDOW_WARNING * w.noise {
+        if w.encoder > beam_tools::identify::split::WINDOW_WARNING * w.noise {
             println!(
                 "  warning: {} moves {:.1e} RMS when the logged angle is quantised again at other phases of its encoder's step, {:.0} times its noise: the encoder's resolution limits it on these logs more than their noise (its interval counts the shift)",
                 w.name,
@@ -364,12 +364,12 @@ fn summary<const N: usize>(
 }
 
 type Spread = (
-    Vec<beam_tools::calibrate::Uncertainty>,
-    Vec<beam_tools::calibrate::Tradeoff>,
+    Vec<beam_tools::identify::calibrate::Uncertainty>,
+    Vec<beam_tools::identify::calibrate::Tradeoff>,
 );
 
 fn uncertainty_n<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<Spread> {
-    beam_tools::calibrate::uncertainty::<N>(p, exps)
+    beam_tools::identify::calibrate::uncertainty::<N>(p, exps)
 }
 
 fn log_fits<const N: usize>(
@@ -380,12 +380,12 @@ fn log_fits<const N: usize>(
     let seen: Vec<Experiment> = exps
         .iter()
         .map(|e| Experiment {
-            log: beam_tools::replay::corrected(&e.log, sensors),
+            log: beam_tools::identify::replay::corrected(&e.log, sensors),
             ..e.clone()
         })
         .collect();
-    let mut fits =
-        beam_tools::calibrate::log_fits::<N>(p, &seen).context("the model broke down on a log")?;
+    let mut fits = beam_tools::identify::calibrate::log_fits::<N>(p, &seen)
+        .context("the model broke down on a log")?;
     // The strain error as the gauge reads it.
     fits.iter_mut()
         .for_each(|f| f.rms_strain_err_ue *= sensors.gauge_scale);
@@ -407,7 +407,8 @@ fn numbered(path: &std::path::Path, i: usize) -> PathBuf {
 fn traces_n<const N: usize>(
     p: &BeamParams,
     sensors: &Sensors,
-    log: &beam_tools::calibrate::Log,
-) -> anyhow::Result<beam_tools::replay::Traces> {
-    beam_tools::replay::traces::<N>(p, sensors, log).context("the model broke down on a log")
+    log: &beam_tools::identify::calibrate::Log,
+) -> anyhow::Result<beam_tools::identify::replay::Traces> {
+    beam_tools::identify::replay::traces::<N>(p, sensors, log)
+        .context("the model broke down on a log")
 }

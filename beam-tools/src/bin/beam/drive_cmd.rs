@@ -4,8 +4,8 @@
 
 use crate::named;
 use anyhow::{bail, Context};
-use beam_tools::drive_script;
-use beam_tools::pil_host::{build_plugin, paths, run_pil_commands, PilConfig};
+use beam_tools::link::drive_script;
+use beam_tools::link::pil_host::{build_plugin, paths, run_pil_commands, PilConfig};
 use beam_wire::command::{Command, Outcome, Request};
 use clap::Args;
 use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
@@ -312,11 +312,11 @@ fn move_results(run: &CommandedRun) -> Vec<MoveResult> {
 
 /// The script on a drive at the end of a serial port.
 fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
-    use beam_tools::serial_drive::{write_records_csv, SerialDrive};
+    use beam_tools::link::serial_drive::{write_records_csv, SerialDrive};
     use std::time::{Duration, Instant};
     let timeout = Duration::from_millis(a.reply_timeout_ms);
     if let Some(path) = &a.plot {
-        beam_tools::plot::check_extension(path)?;
+        beam_tools::io::plot::check_extension(path)?;
     }
     let mut drive = SerialDrive::open(port, firmware::link::BAUD, timeout)?;
     // A progress line while recording, on a terminal only (scripts and tests see none).
@@ -353,15 +353,20 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
     }
     let records = drive.take_records();
     if let Some(path) = &a.record {
-        beam_tools::files::write_atomically(path, |w| {
+        beam_tools::io::files::write_atomically(path, |w| {
             write_records_csv(&records, model_core::DEFAULT_TS_S as f64, w)
         })
         .with_context(|| path.display().to_string())?;
     }
     if let Some(path) = &a.plot {
         let title = format!("{} records from {port}", records.len());
-        beam_tools::files::plot_atomically(path, |tmp| {
-            beam_tools::plot::plot_records(&records, model_core::DEFAULT_TS_S as f64, &title, tmp)
+        beam_tools::io::files::plot_atomically(path, |tmp| {
+            beam_tools::io::plot::plot_records(
+                &records,
+                model_core::DEFAULT_TS_S as f64,
+                &title,
+                tmp,
+            )
         })?;
     }
     if a.record.is_some() && std::io::IsTerminal::is_terminal(&std::io::stderr()) {

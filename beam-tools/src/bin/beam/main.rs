@@ -36,7 +36,7 @@ mod replay_cmd;
 mod sweep_cmd;
 
 use anyhow::{anyhow, bail, Context};
-use beam_tools::{files as io, plot};
+use beam_tools::io::{files as io, plot};
 use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, SimOptions, SimResult};
@@ -543,7 +543,7 @@ fn main() -> ExitCode {
 
 fn beam(plant: &PlantArgs) -> anyhow::Result<Beam> {
     let mut params: BeamParams = match &plant.params {
-        Some(path) => beam_tools::params_file::load(path)?,
+        Some(path) => beam_tools::io::params_file::load(path)?,
         None => BeamParams::preset(plant.preset),
     };
     if let Some(m) = plant.tip_mass {

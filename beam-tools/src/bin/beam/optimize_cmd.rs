@@ -3,7 +3,7 @@
 
 use crate::{beam, named, PlantArgs};
 use anyhow::{anyhow, bail, Context};
-use beam_tools::optimize::{
+use beam_tools::design::optimize::{
     default_params, full_metrics, optimize, LoadHold, Outcome, Param, Scenario, Spec,
     SHAPER_DAMPING, SHAPER_HZ,
 };
@@ -285,7 +285,7 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
     let outcome = optimize(&model, &spec, &|done, _| bar.set_position(done as u64));
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    let motion = beam_tools::optimize::motion_for(&spec, &outcome.best.gains);
+    let motion = beam_tools::design::optimize::motion_for(&spec, &outcome.best.gains);
     let winner = full_metrics(&model, outcome.best.law, a.seed, motion, spec.load_hold)?;
     let baseline = full_metrics(
         &model,
@@ -334,7 +334,7 @@ fn scenarios(
         bail!("--moves must be amplitudes in (0, 720] deg");
     }
     let p = *nominal.params();
-    let sweep = beam_tools::sweep::SweepSpec {
+    let sweep = beam_tools::design::sweep::SweepSpec {
         cases: a.robust,
         spread: a.spread,
         payload_max_kg: 0.0,
@@ -347,7 +347,7 @@ fn scenarios(
     use rand::Rng;
     (0..a.robust)
         .map(|i| {
-            let d = beam_tools::sweep::Perturbation::draw(&sweep, i);
+            let d = beam_tools::design::sweep::Perturbation::draw(&sweep, i);
             let mut plant = d.apply(&p);
             plant.coulomb_nm = a.coulomb_max * rng.gen::<f64>();
             plant.tip_mass_kg =
@@ -357,7 +357,7 @@ fn scenarios(
             let m = host_tests::sim::Motion {
                 from_rad: -half,
                 to_rad: half,
-                time_s: beam_tools::sweep::planned_time_s(deg) as f32,
+                time_s: beam_tools::design::sweep::planned_time_s(deg) as f32,
                 // Short moves cannot absorb the shaper's length: every scenario is stretched.
                 timing: model_core::Timing::Stretch,
                 ..*motion
@@ -502,7 +502,7 @@ fn write_row(
             switching: g.switching,
         }),
     };
-    let shaper = beam_tools::optimize::motion_for(spec, &o.best.gains).shaper;
+    let shaper = beam_tools::design::optimize::motion_for(spec, &o.best.gains).shaper;
     let row = gain_table::Row {
         payload_kg,
         gains,
@@ -517,7 +517,7 @@ fn write_row(
     gain_table::upsert(&mut table.rows, row);
     let text = gain_table::render(&table);
     gain_table::parse(&text, &path.display().to_string())?;
-    beam_tools::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
+    beam_tools::io::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
         .with_context(|| path.display().to_string())
 }
 

@@ -3,9 +3,9 @@
 
 use crate::{named, PlantArgs, RunArgs};
 use anyhow::{anyhow, bail, Context};
-use beam_tools::files as io;
-use beam_tools::pil_host::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
-use beam_tools::telemetry::{self, Decoded};
+use beam_tools::io::files as io;
+use beam_tools::link::pil_host::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
+use beam_tools::link::telemetry::{self, Decoded};
 use clap::Args;
 use firmware::config::law_for;
 use host_tests::plant::Plant;

@@ -3,9 +3,9 @@
 
 use crate::PlantArgs;
 use anyhow::{bail, Context};
-use beam_tools::calibrate::{find_windows, read_log_with, Columns, Windows};
-use beam_tools::params_file::Sensors;
-use beam_tools::replay::{replay_report, traces, Traces};
+use beam_tools::identify::calibrate::{find_windows, read_log_with, Columns, Windows};
+use beam_tools::identify::replay::{replay_report, traces, Traces};
+use beam_tools::io::params_file::Sensors;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -38,14 +38,14 @@ pub struct ReplayArgs {
 
 pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.plot {
-        beam_tools::plot::check_extension(path)?;
+        beam_tools::io::plot::check_extension(path)?;
     }
     if a.windows.as_ref().is_some_and(|w| w.len() != 3) {
         bail!("--windows takes three times: START,END,SETTLE_END");
     }
     let params = *crate::beam(&a.plant)?.params();
     let sensors = match &a.plant.params {
-        Some(path) => beam_tools::params_file::load_with_sensors(path)?.1,
+        Some(path) => beam_tools::io::params_file::load_with_sensors(path)?.1,
         None => Sensors::default(),
     };
     let file = a.log.display().to_string();
@@ -61,12 +61,12 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
     if a.csv.is_some() || a.plot.is_some() {
         let traces = with_modes!(a.plant.modes, traces_n(&params, &sensors, &log))?;
         if let Some(path) = &a.csv {
-            beam_tools::files::write_atomically(path, |w| traces.write_csv(w))
+            beam_tools::io::files::write_atomically(path, |w| traces.write_csv(w))
                 .with_context(|| path.display().to_string())?;
         }
         if let Some(path) = &a.plot {
             let title = format!("{} against {}", a.plant.source(), file);
-            beam_tools::files::plot_atomically(path, |tmp| traces.plot(&title, tmp))?;
+            beam_tools::io::files::plot_atomically(path, |tmp| traces.plot(&title, tmp))?;
         }
     }
     if a.json {
@@ -101,9 +101,9 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
 fn report_n<const N: usize>(
     params: &model_core::BeamParams,
     sensors: &Sensors,
-    log: &beam_tools::calibrate::Log,
+    log: &beam_tools::identify::calibrate::Log,
     windows: &Windows,
-) -> anyhow::Result<beam_tools::replay::ReplayReport> {
+) -> anyhow::Result<beam_tools::identify::replay::ReplayReport> {
     replay_report::<N>(params, sensors, log, windows)
         .context("the model broke down replaying this log (or its parameters are invalid)")
 }
@@ -111,7 +111,7 @@ fn report_n<const N: usize>(
 fn traces_n<const N: usize>(
     params: &model_core::BeamParams,
     sensors: &Sensors,
-    log: &beam_tools::calibrate::Log,
+    log: &beam_tools::identify::calibrate::Log,
 ) -> anyhow::Result<Traces> {
     traces::<N>(params, sensors, log).context("the model broke down")
 }

@@ -3,8 +3,8 @@
 
 use crate::{beam, named, PlantArgs};
 use anyhow::{bail, Context};
-use beam_tools::plot::{histograms, HistogramPanel};
-use beam_tools::sweep::{percentiles, sweep, Case, SweepSpec};
+use beam_tools::design::sweep::{percentiles, sweep, Case, SweepSpec};
+use beam_tools::io::plot::{histograms, HistogramPanel};
 use clap::Args;
 use host_tests::metrics::Metrics;
 use model_core::{Law, LawKind, PdGains};
@@ -91,7 +91,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         bail!("--cases {} must be 1..=1000000", a.cases);
     }
     if let Some(path) = &a.plot {
-        beam_tools::plot::check_extension(path)?;
+        beam_tools::io::plot::check_extension(path)?;
     }
     if !(a.coulomb_max.is_finite() && (0.0..=1.0).contains(&a.coulomb_max)) {
         bail!("--coulomb-max {} must be in [0, 1] N m", a.coulomb_max);
@@ -105,7 +105,9 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     let nominal = *beam(&a.plant)?.params();
     let kind = a.controller.name();
     let loaded = match &a.table {
-        Some(path) => Some(beam_tools::table::gain_rows(&gain_table::load(path)?.rows)),
+        Some(path) => Some(beam_tools::design::table::gain_rows(
+            &gain_table::load(path)?.rows,
+        )),
         None => None,
     };
     let table = loaded.as_deref().unwrap_or(model_core::gains::GAIN_TABLE);
@@ -128,7 +130,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     };
     let law_at = tuned(a.controller);
     let peer_at = tuned(LawKind::PdFf);
-    let peer: Option<&(dyn Fn(f64) -> beam_tools::sweep::Tuned + Sync)> =
+    let peer: Option<&(dyn Fn(f64) -> beam_tools::design::sweep::Tuned + Sync)> =
         (!a.no_peer && a.controller != LawKind::PdFf).then_some(&peer_at);
     let spec = SweepSpec {
         cases: a.cases,
@@ -146,7 +148,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     )?;
     let seconds = started.elapsed().as_secs_f64();
     if let Some(path) = &a.csv {
-        beam_tools::files::write_atomically(path, |w| write_csv(&cases, w))
+        beam_tools::io::files::write_atomically(path, |w| write_csv(&cases, w))
             .with_context(|| path.display().to_string())?;
     }
     if let Some(path) = &a.plot {
@@ -183,7 +185,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
             a.spread * 100.0,
             a.payload_max
         );
-        beam_tools::files::plot_atomically(path, |tmp| {
+        beam_tools::io::files::plot_atomically(path, |tmp| {
             histograms(&title, (kind, "pd 20/1"), &panels, tmp)
         })?;
     }

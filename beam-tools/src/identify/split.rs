@@ -29,14 +29,16 @@
 //! residuals' lag-one autocorrelation counted (fewer independent samples than logged);
 //! step 2's from a moving-block bootstrap of the balance's samples.
 
-use crate::calibrate::{minimise, replay, CalibrateError, Experiment, Log, Tradeoff, Uncertainty};
-use crate::lsq::Normal;
-use crate::optimize::Param;
-use crate::params_file::Sensors;
-use crate::replay::{
+use crate::design::optimize::Param;
+use crate::identify::calibrate::{
+    minimise, replay, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
+};
+use crate::identify::lsq::Normal;
+use crate::identify::replay::{
     corrected, encoder_step, hub_window_s, prescribed, prescribed_observed, requantised, HubMotion,
     StrainObserver, ENCODER_PHASES, HUB_WINDOW_S,
 };
+use crate::io::params_file::Sensors;
 use host_tests::plant::COULOMB_SMOOTHING_RAD_S;
 use model_core::{Beam, BeamParams};
 use rand::{rngs::StdRng, Rng, SeedableRng};
@@ -585,7 +587,7 @@ pub fn calibrate_split<const N: usize>(
     for a in 0..5 {
         for b in a + 1..5 {
             let c = beam.corr[a][b];
-            if c.abs() > crate::calibrate::TRADEOFF_CORRELATION {
+            if c.abs() > crate::identify::calibrate::TRADEOFF_CORRELATION {
                 tradeoffs.push(Tradeoff {
                     a: beam_names[a],
                     b: beam_names[b],
@@ -597,7 +599,7 @@ pub fn calibrate_split<const N: usize>(
     for (ia, &a) in used.iter().enumerate() {
         for &b in &used[ia + 1..] {
             let c = correlation(&boot, a, b);
-            if c.abs() > crate::calibrate::TRADEOFF_CORRELATION {
+            if c.abs() > crate::identify::calibrate::TRADEOFF_CORRELATION {
                 tradeoffs.push(Tradeoff {
                     a: names[a],
                     b: names[b],
@@ -847,7 +849,7 @@ fn fit_beam<const N: usize>(
                     for (i, row) in damped.iter_mut().enumerate() {
                         row[i] += lambda * a[i][i];
                     }
-                    let Some(d) = crate::lsq::solve(damped, g.clone()) else {
+                    let Some(d) = crate::identify::lsq::solve(damped, g.clone()) else {
                         lambda *= 10.0;
                         continue;
                     };

@@ -3,8 +3,8 @@
 //! hub itself, by the logged torque open loop; with the figures that say how well the model
 //! explains the log.
 
-use crate::calibrate::{replay as replay_torque, Log, Windows};
-use crate::params_file::Sensors;
+use crate::identify::calibrate::{replay as replay_torque, Log, Windows};
+use crate::io::params_file::Sensors;
 use host_tests::plant::Plant;
 use model_core::{Beam, BeamParams, ModalModel};
 use serde::Serialize;
@@ -423,7 +423,7 @@ pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Option<f64
     if !ys.iter().all(|y| y.is_finite()) {
         return None;
     }
-    let mut line = crate::lsq::Normal::new(2);
+    let mut line = crate::identify::lsq::Normal::new(2);
     ts.iter()
         .zip(&ys)
         .for_each(|(x, y)| line.add(&[1.0, *x], *y));
@@ -454,7 +454,7 @@ pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Option<f64
             }
             bb += y * y;
         }
-        match crate::lsq::solve(ata.iter().map(|r| r.to_vec()).collect(), atb.to_vec()) {
+        match crate::identify::lsq::solve(ata.iter().map(|r| r.to_vec()).collect(), atb.to_vec()) {
             Some(c) => bb - c.iter().zip(&atb).map(|(c, b)| c * b).sum::<f64>(),
             None => f64::INFINITY,
         }
@@ -590,7 +590,11 @@ impl Traces {
 
     /// The paper's calibration figures: hub angle, hub rate, root strain and (where logged)
     /// mid-span strain, measured against the model, to `path` (.png or .svg).
-    pub fn plot(&self, title: &str, path: &std::path::Path) -> Result<(), crate::plot::PlotError> {
+    pub fn plot(
+        &self,
+        title: &str,
+        path: &std::path::Path,
+    ) -> Result<(), crate::io::plot::PlotError> {
         let pts = |v: &[f64], scale: f64| -> Vec<(f64, f64)> {
             self.t.iter().zip(v).map(|(t, y)| (*t, y * scale)).collect()
         };
@@ -628,7 +632,7 @@ impl Traces {
                 vec![("log", pts(l, 1e6)), ("model", pts(m, 1e6))],
             ));
         }
-        crate::plot::plot_panels(title, panels, path)
+        crate::io::plot::plot_panels(title, panels, path)
     }
 }
 

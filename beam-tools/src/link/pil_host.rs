@@ -9,7 +9,7 @@
 //! compared bit for bit; the instruction-count plugin's log gives the cost of each tick, and
 //! the drive's defmt telemetry (on semihosting stderr) is decoded with the ELF.
 
-use crate::telemetry::{self, mode_of, Decoded};
+use crate::link::telemetry::{self, mode_of, Decoded};
 use beam_wire::command::{Reply, Request};
 use beam_wire::{
     decode, encode, CommandFrame, DriveError, DriveMessage, FrameError, FrameReader, HostMessage,
@@ -484,7 +484,7 @@ pub enum PilError {
     NoCounts(String),
     /// The drive's defmt telemetry did not decode.
     #[error(transparent)]
-    Telemetry(#[from] crate::telemetry::TelemetryError),
+    Telemetry(#[from] crate::link::telemetry::TelemetryError),
     /// The closed loop failed.
     #[error(transparent)]
     Sim(#[from] SimError),

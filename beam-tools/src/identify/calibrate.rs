@@ -12,7 +12,7 @@
 //! (in parallel), then runs COBYLA from the best sample: with only the hub angle, Jm and the
 //! beam's inertia trade against each other and a purely local search stalls.
 
-use crate::optimize::{latin_hypercube, Param};
+use crate::design::optimize::{latin_hypercube, Param};
 use host_tests::plant::{Plant, State};
 use model_core::{Beam, BeamParams, EncoderSpec, ModalModel};
 use rayon::prelude::*;
@@ -589,7 +589,7 @@ pub struct Experiment {
     /// Its windows.
     pub windows: Windows,
     /// The tip mass it was logged with, kg, when not the parameters' (a weighed mass added
-    /// for this log: see [`crate::split::Reference::TipMass`]).
+    /// for this log: see [`crate::identify::split::Reference::TipMass`]).
     pub tip_mass_kg: Option<f64>,
 }
 
@@ -880,7 +880,7 @@ pub fn uncertainty<const N: usize>(
             }
         }
     }
-    let inv = crate::lsq::invert(jtj)?;
+    let inv = crate::identify::lsq::invert(jtj)?;
     let s2 = r0.iter().map(|x| x * x).sum::<f64>() / (m - n) as f64;
     let se: Vec<f64> = (0..n).map(|i| (s2 * inv[i][i]).max(0.0).sqrt()).collect();
     let out = which

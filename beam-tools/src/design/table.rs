@@ -62,7 +62,7 @@ mod tests {
 
     #[test]
     fn the_shipped_table_read_at_run_time_equals_the_compiled_one() {
-        let text = include_str!("../../gains.toml");
+        let text = include_str!("../../../gains.toml");
         let rows = gain_table::parse(text, "gains.toml").unwrap();
         assert_eq!(gain_rows(&rows.rows), model_core::gains::GAIN_TABLE);
     }

@@ -5,7 +5,7 @@
 //! written through instead: renaming onto it would replace the device node with a plain file,
 //! and for `/dev/null`, run as root, break every program on the machine that reads it.
 
-use crate::plot::PlotError;
+use crate::io::plot::PlotError;
 use host_tests::sim::SimResult;
 use std::fs;
 use std::io::{self, BufWriter, Write};

@@ -1,0 +1,5 @@
+//! Design: gains by optimisation, their robustness, and gain tables read at run time.
+
+pub mod optimize;
+pub mod sweep;
+pub mod table;

@@ -1,0 +1,6 @@
+//! Identification: the model's parameters from logged moves, and the model against a log.
+
+pub mod calibrate;
+pub mod lsq;
+pub mod replay;
+pub mod split;
