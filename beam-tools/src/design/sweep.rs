@@ -198,6 +198,57 @@ pub fn percentiles(values: impl Iterator<Item = Option<f64>>) -> Option<(f64, f6
     Some((rank(0.5), rank(0.95), v[v.len() - 1]))
 }
 
+/// A metric of a run, by its name in the reports.
+pub type Pick = fn(&Metrics) -> Option<f64>;
+
+/// A metric's (p50, p95, max) over the cases.
+pub type Spread = (f64, f64, f64);
+
+/// The metrics a sweep reports, with their names.
+pub const SUMMARY: [(&str, Pick); 6] = [
+    ("rms_root_strain_ue_0_4_0_6", |m| {
+        m.rms_root_strain_ue_0_4_0_6
+    }),
+    ("err_deg_t0_6", |m| m.err_deg_t0_6),
+    ("err_deg_t2_0", |m| m.err_deg_t2_0),
+    ("settle_s", |m| m.settle_s),
+    ("peak_torque_nm", |m| m.peak_torque_nm),
+    ("max_root_strain_ue_after_move", |m| {
+        m.max_root_strain_ue_after_move
+    }),
+];
+
+/// One law's outcome over the cases: how many broke the model, and each reported metric's
+/// (p50, p95, max) over the runs that stayed in range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LawSummary {
+    /// Cases where the model broke down.
+    pub breakdowns: usize,
+    /// [`SUMMARY`]'s metrics, by name.
+    pub metrics: Vec<(&'static str, Option<Spread>)>,
+}
+
+impl LawSummary {
+    /// The summary of the runs `pick` takes from each case (`None`: that case has none).
+    pub fn of(cases: &[Case], pick: impl Fn(&Case) -> Option<&Metrics>) -> Self {
+        Self {
+            breakdowns: cases
+                .iter()
+                .filter(|c| pick(c).is_some_and(|m| m.breakdown_at_s.is_some()))
+                .count(),
+            metrics: SUMMARY
+                .iter()
+                .map(|(name, metric)| {
+                    (
+                        *name,
+                        percentiles(cases.iter().map(|c| pick(c).and_then(metric))),
+                    )
+                })
+                .collect(),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,7 +3,7 @@
 
 use crate::{beam, named, PlantArgs};
 use anyhow::{bail, Context};
-use beam_tools::design::sweep::{percentiles, sweep, Case, SweepSpec};
+use beam_tools::design::sweep::{sweep, Case, LawSummary, SweepSpec, SUMMARY};
 use beam_tools::io::plot::{histograms, HistogramPanel};
 use clap::Args;
 use host_tests::metrics::Metrics;
@@ -61,65 +61,11 @@ pub struct SweepArgs {
     json: bool,
 }
 
-type Pick = fn(&Metrics) -> Option<f64>;
-/// A metric's name and its (p50, p95, max).
-type Summary = (&'static str, Option<(f64, f64, f64)>);
-const SUMMARY: [(&str, Pick); 6] = [
-    ("rms_root_strain_ue_0_4_0_6", |m| {
-        m.rms_root_strain_ue_0_4_0_6
-    }),
-    ("err_deg_t0_6", |m| m.err_deg_t0_6),
-    ("err_deg_t2_0", |m| m.err_deg_t2_0),
-    ("settle_s", |m| m.settle_s),
-    ("peak_torque_nm", |m| m.peak_torque_nm),
-    ("max_root_strain_ue_after_move", |m| {
-        m.max_root_strain_ue_after_move
-    }),
-];
-
 pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
-    if a.plant.tip_mass.is_some() {
-        bail!("--tip-mass does not apply to sweep: payloads are drawn up to --payload-max");
-    }
-    if !(a.spread.is_finite() && (0.0..0.9).contains(&a.spread)) {
-        bail!("--spread {} must be in [0, 0.9)", a.spread);
-    }
-    if !(a.payload_max.is_finite() && (0.0..=1.0).contains(&a.payload_max)) {
-        bail!("--payload-max {} must be in [0, 1] kg", a.payload_max);
-    }
-    if a.cases == 0 || a.cases > 1_000_000 {
-        bail!("--cases {} must be 1..=1000000", a.cases);
-    }
-    if let Some(path) = &a.plot {
-        beam_tools::io::plot::check_extension(path)?;
-    }
-    if !(a.coulomb_max.is_finite() && (0.0..=1.0).contains(&a.coulomb_max)) {
-        bail!("--coulomb-max {} must be in [0, 1] N m", a.coulomb_max);
-    }
-    if a.moves
-        .iter()
-        .any(|m| !(m.is_finite() && *m > 0.0 && *m <= 720.0))
-    {
-        bail!("--moves must be amplitudes in (0, 720] deg");
-    }
+    check(a)?;
     let nominal = *beam(&a.plant)?.params();
-    let kind = a.controller.name();
-    let loaded = match &a.table {
-        Some(path) => Some(beam_tools::design::table::gain_rows(
-            &gain_table::load(path)?.rows,
-        )),
-        None => None,
-    };
+    let loaded = load_table(a)?;
     let table = loaded.as_deref().unwrap_or(model_core::gains::GAIN_TABLE);
-    if loaded.is_some() && !table.iter().any(|r| r.law.kind() == a.controller) {
-        bail!(
-            "{} has no {} row",
-            a.table
-                .as_ref()
-                .map_or(String::new(), |p| p.display().to_string()),
-            a.controller
-        );
-    }
     let tuned = |k: LawKind| {
         move |payload: f64| {
             let p = payload as f32;
@@ -147,112 +93,155 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         sweep(&nominal, &spec, &law_at, Law::Pd(PdGains::BASELINE), peer)
     )?;
     let seconds = started.elapsed().as_secs_f64();
-    if let Some(path) = &a.csv {
-        beam_tools::io::files::write_atomically(path, |w| write_csv(&cases, w))
-            .with_context(|| path.display().to_string())?;
+    write_files(a, &cases)?;
+    let controller = LawSummary::of(&cases, |c| Some(&c.controller));
+    let baseline = LawSummary::of(&cases, |c| Some(&c.baseline));
+    let peer = peer
+        .is_some()
+        .then(|| LawSummary::of(&cases, |c| c.peer.as_ref()));
+    if a.json {
+        print_json(a, seconds, &controller, &baseline, peer.as_ref());
+    } else {
+        print_text(a, seconds, &controller, &baseline, peer.as_ref());
+    }
+    Ok(())
+}
+
+/// The arguments' ranges, checked before anything runs.
+fn check(a: &SweepArgs) -> anyhow::Result<()> {
+    if a.plant.tip_mass.is_some() {
+        bail!("--tip-mass does not apply to sweep: payloads are drawn up to --payload-max");
+    }
+    if !(a.spread.is_finite() && (0.0..0.9).contains(&a.spread)) {
+        bail!("--spread {} must be in [0, 0.9)", a.spread);
+    }
+    if !(a.payload_max.is_finite() && (0.0..=1.0).contains(&a.payload_max)) {
+        bail!("--payload-max {} must be in [0, 1] kg", a.payload_max);
+    }
+    if a.cases == 0 || a.cases > 1_000_000 {
+        bail!("--cases {} must be 1..=1000000", a.cases);
     }
     if let Some(path) = &a.plot {
-        let panels = [
-            HistogramPanel {
-                title: "RMS root strain 0.4..0.6 s",
-                unit: "microstrain",
-                controller: cases
-                    .iter()
-                    .filter_map(|c| c.controller.rms_root_strain_ue_0_4_0_6)
-                    .collect(),
-                baseline: cases
-                    .iter()
-                    .filter_map(|c| c.baseline.rms_root_strain_ue_0_4_0_6)
-                    .collect(),
-            },
-            HistogramPanel {
-                title: "Hub error at 0.6 s",
-                unit: "deg",
-                controller: cases
-                    .iter()
-                    .filter_map(|c| c.controller.err_deg_t0_6)
-                    .collect(),
-                baseline: cases
-                    .iter()
-                    .filter_map(|c| c.baseline.err_deg_t0_6)
-                    .collect(),
-            },
-        ];
-        let title = format!(
-            "{} vs PD 20/1: {} cases, +-{:.0} % parameters, 0..{} kg",
-            kind,
-            a.cases,
-            a.spread * 100.0,
-            a.payload_max
-        );
-        beam_tools::io::files::plot_atomically(path, |tmp| {
-            histograms(&title, (kind, "pd 20/1"), &panels, tmp)
-        })?;
+        beam_tools::io::plot::check_extension(path)?;
     }
-    let breakdowns = |f: fn(&Case) -> &Metrics| {
-        cases
-            .iter()
-            .filter(|c| f(c).breakdown_at_s.is_some())
-            .count()
+    if !(a.coulomb_max.is_finite() && (0.0..=1.0).contains(&a.coulomb_max)) {
+        bail!("--coulomb-max {} must be in [0, 1] N m", a.coulomb_max);
+    }
+    if a.moves
+        .iter()
+        .any(|m| !(m.is_finite() && *m > 0.0 && *m <= 720.0))
+    {
+        bail!("--moves must be amplitudes in (0, 720] deg");
+    }
+    Ok(())
+}
+
+/// The `--table` file's rows, if one is given; it must have rows of the controller.
+fn load_table(a: &SweepArgs) -> anyhow::Result<Option<Vec<model_core::gains::GainRow>>> {
+    let Some(path) = &a.table else {
+        return Ok(None);
     };
-    let (bc, bb) = (breakdowns(|c| &c.controller), breakdowns(|c| &c.baseline));
-    let stats = |f: fn(&Case) -> &Metrics| {
-        SUMMARY
-            .iter()
-            .map(|(name, pick)| (*name, percentiles(cases.iter().map(|c| pick(f(c))))))
-            .collect::<Vec<_>>()
+    let rows = beam_tools::design::table::gain_rows(&gain_table::load(path)?.rows);
+    if !rows.iter().any(|r| r.law.kind() == a.controller) {
+        bail!("{} has no {} row", path.display(), a.controller);
+    }
+    Ok(Some(rows))
+}
+
+/// `--csv` (a row per case) and `--plot` (histograms against the baseline).
+fn write_files(a: &SweepArgs, cases: &[Case]) -> anyhow::Result<()> {
+    if let Some(path) = &a.csv {
+        beam_tools::io::files::write_atomically(path, |w| write_csv(cases, w))
+            .with_context(|| path.display().to_string())?;
+    }
+    let Some(path) = &a.plot else {
+        return Ok(());
     };
-    let (sc, sb) = (stats(|c| &c.controller), stats(|c| &c.baseline));
-    let sp: Option<Vec<Summary>> = peer.is_some().then(|| {
-        SUMMARY
+    let panel = |title, unit, pick: fn(&Metrics) -> Option<f64>| HistogramPanel {
+        title,
+        unit,
+        controller: cases.iter().filter_map(|c| pick(&c.controller)).collect(),
+        baseline: cases.iter().filter_map(|c| pick(&c.baseline)).collect(),
+    };
+    let panels = [
+        panel("RMS root strain 0.4..0.6 s", "microstrain", |m| {
+            m.rms_root_strain_ue_0_4_0_6
+        }),
+        panel("Hub error at 0.6 s", "deg", |m| m.err_deg_t0_6),
+    ];
+    let kind = a.controller.name();
+    let title = format!(
+        "{} vs PD 20/1: {} cases, +-{:.0} % parameters, 0..{} kg",
+        kind,
+        a.cases,
+        a.spread * 100.0,
+        a.payload_max
+    );
+    beam_tools::io::files::plot_atomically(path, |tmp| {
+        histograms(&title, (kind, "pd 20/1"), &panels, tmp)
+    })?;
+    Ok(())
+}
+
+fn print_json(
+    a: &SweepArgs,
+    seconds: f64,
+    controller: &LawSummary,
+    baseline: &LawSummary,
+    peer: Option<&LawSummary>,
+) {
+    let obj = |s: &LawSummary| {
+        s.metrics
             .iter()
-            .map(|(name, pick)| {
+            .map(|(n, p)| {
                 (
-                    *name,
-                    percentiles(cases.iter().map(|c| c.peer.as_ref().and_then(pick))),
+                    n.to_string(),
+                    p.map_or(
+                        json!(null),
+                        |(a, b, c)| json!({"p50": a, "p95": b, "max": c}),
+                    ),
                 )
             })
-            .collect()
-    });
-    let bp = cases
-        .iter()
-        .filter(|c| c.peer.as_ref().is_some_and(|m| m.breakdown_at_s.is_some()))
-        .count();
-    if a.json {
-        let obj = |s: &[Summary]| {
-            s.iter()
-                .map(|(n, p)| {
-                    (
-                        n.to_string(),
-                        p.map_or(
-                            json!(null),
-                            |(a, b, c)| json!({"p50": a, "p95": b, "max": c}),
-                        ),
-                    )
-                })
-                .collect::<serde_json::Map<_, _>>()
-        };
-        let mut v = json!({
-            "controller": kind, "preset": a.plant.preset_label(), "modes": a.plant.modes,
-            "cases": a.cases, "spread": a.spread, "payload_max_kg": a.payload_max, "seed": a.seed, "seconds": seconds,
-            "breakdowns": bc, "baseline_breakdowns": bb, "metrics": obj(&sc), "baseline_metrics": obj(&sb),
-        });
-        if let (Some(sp), serde_json::Value::Object(o)) = (&sp, &mut v) {
-            o.insert("peer".into(), json!("pd-ff"));
-            o.insert("peer_breakdowns".into(), json!(bp));
-            o.insert("peer_metrics".into(), serde_json::Value::Object(obj(sp)));
-        }
-        if let serde_json::Value::Object(o) = &mut v {
-            if a.coulomb_max > 0.0 {
-                o.insert("coulomb_max_nm".into(), json!(a.coulomb_max));
-            }
-            if !a.moves.is_empty() {
-                o.insert("moves_deg".into(), json!(a.moves));
-            }
-        }
-        println!("{v}");
-        return Ok(());
+            .collect::<serde_json::Map<_, _>>()
+    };
+    let mut o = serde_json::Map::new();
+    let mut put = |k: &str, v: serde_json::Value| {
+        o.insert(k.into(), v);
+    };
+    put("controller", json!(a.controller.name()));
+    put("preset", json!(a.plant.preset_label()));
+    put("modes", json!(a.plant.modes));
+    put("cases", json!(a.cases));
+    put("spread", json!(a.spread));
+    put("payload_max_kg", json!(a.payload_max));
+    put("seed", json!(a.seed));
+    put("seconds", json!(seconds));
+    put("breakdowns", json!(controller.breakdowns));
+    put("baseline_breakdowns", json!(baseline.breakdowns));
+    put("metrics", json!(obj(controller)));
+    put("baseline_metrics", json!(obj(baseline)));
+    if let Some(p) = peer {
+        put("peer", json!("pd-ff"));
+        put("peer_breakdowns", json!(p.breakdowns));
+        put("peer_metrics", json!(obj(p)));
     }
+    if a.coulomb_max > 0.0 {
+        put("coulomb_max_nm", json!(a.coulomb_max));
+    }
+    if !a.moves.is_empty() {
+        put("moves_deg", json!(a.moves));
+    }
+    println!("{}", serde_json::Value::Object(o));
+}
+
+fn print_text(
+    a: &SweepArgs,
+    seconds: f64,
+    controller: &LawSummary,
+    baseline: &LawSummary,
+    peer: Option<&LawSummary>,
+) {
+    let kind = a.controller.name();
     println!(
         "{} cases in {seconds:.1} s: {kind} (gain table) vs PD 20/1, {} preset, {} mode(s), +-{:.0} % on EI, rho, Jm, friction, damping, payload 0..{} kg",
         a.cases,
@@ -261,27 +250,32 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         a.spread * 100.0,
         a.payload_max
     );
-    println!("  model breakdowns: {kind} {bc}, pd {bb} (metrics below are over the runs that stayed in range)");
-    if sp.is_some() {
-        println!("  pd-ff peer (its table shaper): {bp} breakdowns");
+    println!(
+        "  model breakdowns: {kind} {}, pd {} (metrics below are over the runs that stayed in range)",
+        controller.breakdowns, baseline.breakdowns
+    );
+    if let Some(p) = peer {
+        println!(
+            "  pd-ff peer (its table shaper): {} breakdowns",
+            p.breakdowns
+        );
     }
     println!(
         "  {:32} {:>30} {:>30} {:>30}",
         "metric (p50 / p95 / max)",
         kind,
         "pd 20/1",
-        if sp.is_some() { "pd-ff" } else { "" }
+        if peer.is_some() { "pd-ff" } else { "" }
     );
     let fmt = |p: Option<(f64, f64, f64)>| {
         p.map_or("n/a".to_string(), |(a, b, c)| {
             format!("{a:.3} / {b:.3} / {c:.3}")
         })
     };
-    for (i, ((name, c), (_, b))) in sc.iter().zip(&sb).enumerate() {
-        let p = sp.as_ref().map_or(String::new(), |sp| fmt(sp[i].1));
+    for (i, ((name, c), (_, b))) in controller.metrics.iter().zip(&baseline.metrics).enumerate() {
+        let p = peer.map_or(String::new(), |p| fmt(p.metrics[i].1));
         println!("  {name:32} {:>30} {:>30} {:>30}", fmt(*c), fmt(*b), p);
     }
-    Ok(())
 }
 
 fn write_csv(cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
