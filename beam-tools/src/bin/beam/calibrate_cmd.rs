@@ -6,7 +6,7 @@ use beam_tools::identify::calibrate::{
     calibrate_many, find_windows, read_log_with, Columns, Experiment, LogFit, StepReport, Windows,
     DEFAULT_EVALS,
 };
-use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions};
+use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
 use beam_tools::io::params_file::Sensors;
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
@@ -80,6 +80,37 @@ pub struct CalibrateArgs {
 }
 
 pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
+    check(a)?;
+    let guess = *crate::beam(&a.plant)?.params();
+    let exps = experiments(a)?;
+    let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
+    let found = identify(a, &exps, &guess)?;
+    write_files(a, &found, &exps, &names)?;
+    let (fm, gm) = with_modes!(a.plant.modes, summary(&found.params, &guess))?;
+    if a.json {
+        print_json(a, &found, &exps, &names, &guess, (fm, gm));
+    } else {
+        print_text(a, &found, &exps, &names, (fm, gm));
+    }
+    Ok(())
+}
+
+/// What a calibration found: the parameters, and how well they fit and are known.
+struct Found {
+    params: BeamParams,
+    /// The paper's steps (empty for the split method).
+    steps: Vec<StepReport>,
+    /// How the model fits each log.
+    per_log: Vec<LogFit>,
+    /// The split method's report.
+    split: Option<SplitReport>,
+    /// The intervals and the parameters that trade against each other (`None`: a parameter
+    /// has no effect on the logs).
+    spread: Option<Spread>,
+}
+
+/// The arguments that must agree, checked before any log is read.
+fn check(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.evals == 0 || a.evals > 1_000_000 {
         bail!("--evals {} must be 1..=1000000", a.evals);
     }
@@ -93,8 +124,15 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.plot {
         beam_tools::io::plot::check_extension(path)?;
     }
-    let guess = *crate::beam(&a.plant)?.params();
-    let tip_masses: Vec<Option<f64>> = match a.tip_masses.as_deref() {
+    if a.windows.is_some() && a.logs.len() > 1 {
+        bail!("--windows applies to one log; with several, each log's windows are found in it");
+    }
+    Ok(())
+}
+
+/// Each log's tip mass as given (`None`: the starting parameters'), one per log.
+fn tip_masses(a: &CalibrateArgs) -> anyhow::Result<Vec<Option<f64>>> {
+    Ok(match a.tip_masses.as_deref() {
         None => vec![None; a.logs.len()],
         Some(m) if m.iter().any(|m| !(m.is_finite() && *m >= 0.0)) => {
             bail!("--tip-masses: each mass must be finite and >= 0 kg")
@@ -105,17 +143,14 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             m.len(),
             a.logs.len()
         ),
-    };
-    let masses_differ = tip_masses
-        .iter()
-        .map(|m| m.unwrap_or(guess.tip_mass_kg))
-        .any(|m| m != tip_masses[0].unwrap_or(guess.tip_mass_kg));
-    if a.windows.is_some() && a.logs.len() > 1 {
-        bail!("--windows applies to one log; with several, each log's windows are found in it");
-    }
+    })
+}
+
+/// The logs read, each with its windows and tip mass.
+fn experiments(a: &CalibrateArgs) -> anyhow::Result<Vec<Experiment>> {
     let columns = a.columns.clone().unwrap_or_default();
     let mut exps = vec![];
-    for (path, &tip_mass_kg) in a.logs.iter().zip(&tip_masses) {
+    for (path, tip_mass_kg) in a.logs.iter().zip(tip_masses(a)?) {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).with_context(|| file.clone())?;
         let log = read_log_with(&text, &file, &columns)?;
@@ -130,84 +165,128 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             ..Experiment::new(log, windows)
         });
     }
-    let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
-    let (found, steps, per_log, split, spread) = if a.method == "split" {
-        let reference = match a.known_density {
-            Some(rho) => Reference::Density(rho),
-            None if masses_differ => Reference::TipMass,
-            None => Reference::Torque,
-        };
-        let options = SplitOptions {
-            reference,
-            fit_gauge_position: a.fit_gauge_position,
-            fit_offset: a.torque_offset,
-            evals: a.evals,
-        };
-        let (found, sensors, split) =
-            with_modes!(a.plant.modes, calibrate_split(&exps, &guess, &options))?;
-        let per_log = with_modes!(a.plant.modes, log_fits(&found, &sensors, &exps))?;
-        let spread = Some((split.uncertainty.clone(), split.tradeoffs.clone()));
-        (found, vec![], per_log, Some(split), spread)
-    } else {
-        let (found, steps, per_log) =
-            with_modes!(a.plant.modes, calibrate_many(&exps, &guess, a.evals))?;
-        let spread = with_modes!(a.plant.modes, uncertainty_n(&found, &exps));
-        (found, steps, per_log, None, spread)
+    Ok(exps)
+}
+
+/// The calibration by the chosen method.
+fn identify(a: &CalibrateArgs, exps: &[Experiment], guess: &BeamParams) -> anyhow::Result<Found> {
+    if a.method != "split" {
+        let (params, steps, per_log) =
+            with_modes!(a.plant.modes, calibrate_many(exps, guess, a.evals))?;
+        let spread = with_modes!(a.plant.modes, uncertainty_n(&params, exps));
+        return Ok(Found {
+            params,
+            steps,
+            per_log,
+            split: None,
+            spread,
+        });
+    }
+    let mass = |e: &Experiment| e.tip_mass_kg.unwrap_or(guess.tip_mass_kg);
+    let masses_differ = exps.iter().any(|e| mass(e) != mass(&exps[0]));
+    let reference = match a.known_density {
+        Some(rho) => Reference::Density(rho),
+        None if masses_differ => Reference::TipMass,
+        None => Reference::Torque,
     };
+    let options = SplitOptions {
+        reference,
+        fit_gauge_position: a.fit_gauge_position,
+        fit_offset: a.torque_offset,
+        evals: a.evals,
+    };
+    let (params, sensors, split) =
+        with_modes!(a.plant.modes, calibrate_split(exps, guess, &options))?;
+    let per_log = with_modes!(a.plant.modes, log_fits(&params, &sensors, exps))?;
+    Ok(Found {
+        params,
+        steps: vec![],
+        per_log,
+        spread: Some((split.uncertainty.clone(), split.tradeoffs.clone())),
+        split: Some(split),
+    })
+}
+
+/// `--out` (the parameter file) and `--plot` (one figure per log).
+fn write_files(
+    a: &CalibrateArgs,
+    found: &Found,
+    exps: &[Experiment],
+    names: &[String],
+) -> anyhow::Result<()> {
     if let Some(path) = &a.out {
         let comment = format!("identified by beam calibrate from {}", names.join(", "));
         let text = beam_tools::io::params_file::render_with(
-            &found,
-            split.as_ref().map(|s| &s.sensors),
+            &found.params,
+            found.split.as_ref().map(|s| &s.sensors),
             &comment,
         );
         beam_tools::io::files::write_atomically(path, |w| w.write_all(text.as_bytes()))
             .with_context(|| path.display().to_string())?;
     }
     if let Some(path) = &a.plot {
-        let sensors = split.as_ref().map(|s| s.sensors).unwrap_or_default();
-        for (i, (e, name)) in exps.iter().zip(&names).enumerate() {
+        let sensors = found.split.as_ref().map(|s| s.sensors).unwrap_or_default();
+        for (i, (e, name)) in exps.iter().zip(names).enumerate() {
             let target = numbered(path, i);
-            let traces = with_modes!(a.plant.modes, traces_n(&e.params(&found), &sensors, &e.log))?;
+            let params = e.params(&found.params);
+            let traces = with_modes!(a.plant.modes, traces_n(&params, &sensors, &e.log))?;
             let title = format!("identified model against {name}");
             beam_tools::io::files::plot_atomically(&target, |tmp| traces.plot(&title, tmp))?;
         }
     }
-    let (fm, gm) = with_modes!(a.plant.modes, summary(&found, &guess))?;
-    if a.json {
-        let steps: Vec<_> = steps
-            .iter()
-            .map(|s| {
-                json!({"step": s.name, "window_s": [s.window.0, s.window.1],
-                       "fitted": s.fitted.iter().map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
-                       "rms_theta_err_rad": s.rms_theta_err_rad, "rms_strain_err_ue": s.rms_strain_err_ue})
-            })
-            .collect();
-        let logs: Vec<_> = exps
-            .iter()
-            .zip(&per_log)
-            .zip(&names)
-            .map(|((e, f), name)| {
-                let w = &e.windows;
-                json!({"log": name, "samples": e.log.t.len(), "tip_mass_kg": e.params(&guess).tip_mass_kg,
-                       "windows_s": [w.start_s, w.end_s, w.settle_end_s],
-                       "rms_theta_err_rad": f.rms_theta_err_rad, "rms_strain_err_ue": f.rms_strain_err_ue})
-            })
-            .collect();
-        println!(
-            "{}",
-            json!({"method": a.method, "split": split, "steps": steps, "identified": fm, "guess": gm, "logs": logs,
-                   "uncertainty": spread.as_ref().map(|s| &s.0),
-                   "tradeoffs": spread.as_ref().map(|s| &s.1)})
-        );
-        return Ok(());
-    }
+    Ok(())
+}
+
+fn print_json(
+    a: &CalibrateArgs,
+    found: &Found,
+    exps: &[Experiment],
+    names: &[String],
+    guess: &BeamParams,
+    (fm, gm): (serde_json::Value, serde_json::Value),
+) {
+    let steps: Vec<_> = found
+        .steps
+        .iter()
+        .map(|s| {
+            json!({"step": s.name, "window_s": [s.window.0, s.window.1],
+                   "fitted": s.fitted.iter().map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
+                   "rms_theta_err_rad": s.rms_theta_err_rad, "rms_strain_err_ue": s.rms_strain_err_ue})
+        })
+        .collect();
+    let logs: Vec<_> = exps
+        .iter()
+        .zip(&found.per_log)
+        .zip(names)
+        .map(|((e, f), name)| {
+            let w = &e.windows;
+            json!({"log": name, "samples": e.log.t.len(), "tip_mass_kg": e.params(guess).tip_mass_kg,
+                   "windows_s": [w.start_s, w.end_s, w.settle_end_s],
+                   "rms_theta_err_rad": f.rms_theta_err_rad, "rms_strain_err_ue": f.rms_strain_err_ue})
+        })
+        .collect();
+    let spread = found.spread.as_ref();
+    println!(
+        "{}",
+        json!({"method": a.method, "split": found.split, "steps": steps, "identified": fm, "guess": gm, "logs": logs,
+               "uncertainty": spread.map(|s| &s.0),
+               "tradeoffs": spread.map(|s| &s.1)})
+    );
+}
+
+fn print_text(
+    a: &CalibrateArgs,
+    found: &Found,
+    exps: &[Experiment],
+    names: &[String],
+    (fm, gm): (serde_json::Value, serde_json::Value),
+) {
     println!(
         "calibrated from {} log(s), guess: {}",
         exps.len(),
         a.plant.source()
     );
-    for ((e, f), name) in exps.iter().zip(&per_log).zip(&names) {
+    for ((e, f), name) in exps.iter().zip(&found.per_log).zip(names) {
         let w = &e.windows;
         println!(
             "  {name}: {} samples, move {:.3}..{:.3} s, settling to {:.3} s; fit: hub {:.2e} rad, root strain {:.2} ue RMS",
@@ -219,58 +298,83 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             f.rms_strain_err_ue
         );
     }
-    for s in &steps {
+    for s in &found.steps {
         print_step(s);
     }
-    if let Some(s) = &split {
-        println!(
-            "  split, beam (hub prescribed): root strain RMS error {:.2} ue, gauge scale {:.4}",
-            s.beam_rms_strain_err_ue, s.sensors.gauge_scale
-        );
-        let steps: Vec<String> = s
-            .encoder_step_rad
-            .iter()
-            .map(|q| match q {
-                Some(q) => format!(
-                    "{q:.3e} rad ({:.0} counts a turn)",
-                    std::f64::consts::TAU / q
-                ),
-                None => "none (the angle is not on a grid)".into(),
-            })
-            .collect();
-        println!(
-            "  split, encoder step in each log's angle: {}",
-            steps.join(", ")
-        );
-        println!(
-            "  split, torque balance over {} moving samples: RMS error {:.2e} of {:.2e} N m; {}; {}",
-            s.balance_samples,
-            s.balance_rms_err_nm,
-            s.balance_rms_torque_nm,
-            if s.reference == "density" {
-                format!("density given, torque scale found {:.4}", s.sensors.torque_scale)
-            } else if s.reference == "tip_mass" {
-                format!(
-                    "density from the tip masses' frequency shift, torque scale found {:.4}",
-                    s.sensors.torque_scale
-                )
-            } else {
-                "torque taken to read true (scale 1): masses, EI and friction carry its scale error (--known-density, or logs with two --tip-masses, measure it)".into()
-            },
-            if s.offset_fitted {
-                format!("torque offset {:.2e} N m", s.sensors.torque_offset_nm)
-            } else {
-                "no torque offset fitted".into()
-            }
-        );
-        println!(
-            "  split, check: the logged torque replayed open loop through the sensors drifts {:.2e} rad RMS from the logged angle",
-            s.replay_rms_theta_err_rad
-        );
+    if let Some(s) = &found.split {
+        print_split(s);
     }
+    print_spread(found);
+    println!("  identified: {fm}");
+    println!("  guess was:  {gm}");
+    if let Some(path) = &a.out {
+        println!("  written to {} (use with --params)", path.display());
+    }
+    if let Some(path) = &a.plot {
+        let all: Vec<String> = (0..exps.len())
+            .map(|i| numbered(path, i).display().to_string())
+            .collect();
+        println!("  figures: {}", all.join(", "));
+    }
+}
+
+/// The split method's own figures: the beam's fit, the encoder, the torque balance.
+fn print_split(s: &SplitReport) {
+    println!(
+        "  split, beam (hub prescribed): root strain RMS error {:.2} ue, gauge scale {:.4}",
+        s.beam_rms_strain_err_ue, s.sensors.gauge_scale
+    );
+    let steps: Vec<String> = s
+        .encoder_step_rad
+        .iter()
+        .map(|q| match q {
+            Some(q) => format!(
+                "{q:.3e} rad ({:.0} counts a turn)",
+                std::f64::consts::TAU / q
+            ),
+            None => "none (the angle is not on a grid)".into(),
+        })
+        .collect();
+    println!(
+        "  split, encoder step in each log's angle: {}",
+        steps.join(", ")
+    );
+    println!(
+        "  split, torque balance over {} moving samples: RMS error {:.2e} of {:.2e} N m; {}; {}",
+        s.balance_samples,
+        s.balance_rms_err_nm,
+        s.balance_rms_torque_nm,
+        if s.reference == "density" {
+            format!(
+                "density given, torque scale found {:.4}",
+                s.sensors.torque_scale
+            )
+        } else if s.reference == "tip_mass" {
+            format!(
+                "density from the tip masses' frequency shift, torque scale found {:.4}",
+                s.sensors.torque_scale
+            )
+        } else {
+            "torque taken to read true (scale 1): masses, EI and friction carry its scale error (--known-density, or logs with two --tip-masses, measure it)".into()
+        },
+        if s.offset_fitted {
+            format!("torque offset {:.2e} N m", s.sensors.torque_offset_nm)
+        } else {
+            "no torque offset fitted".into()
+        }
+    );
+    println!(
+        "  split, check: the logged torque replayed open loop through the sensors drifts {:.2e} rad RMS from the logged angle",
+        s.replay_rms_theta_err_rad
+    );
+}
+
+/// The intervals, and the warnings about parameters the logs do not pin down.
+fn print_spread(found: &Found) {
+    let split = &found.split;
     let [lo, hi] = beam_tools::identify::split::WINDOW_FACTORS;
     let smoothing = format!("{lo:.1} or {hi:.1} times the width");
-    match &spread {
+    match &found.spread {
         Some((errs, trades)) => {
             let parts: Vec<String> = errs
                 .iter()
@@ -316,18 +420,6 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             );
         }
     }
-    println!("  identified: {fm}");
-    println!("  guess was:  {gm}");
-    if let Some(path) = &a.out {
-        println!("  written to {} (use with --params)", path.display());
-    }
-    if let Some(path) = &a.plot {
-        let all: Vec<String> = (0..exps.len())
-            .map(|i| numbered(path, i).display().to_string())
-            .collect();
-        println!("  figures: {}", all.join(", "));
-    }
-    Ok(())
 }
 
 fn print_step(s: &StepReport) {
