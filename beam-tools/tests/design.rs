@@ -70,7 +70,7 @@ fn optimiser_is_deterministic_feasible_and_beats_the_hand_picked_gains() {
 
 #[test]
 fn shipped_smc_gains_cut_residual_strain_tenfold_with_the_hub_on_target() {
-    // The bar: RMS root strain over 0.4..0.6 s at most a tenth of PD (20, 1)'s, with
+    // The design goal: RMS root strain over 0.4..0.6 s at most a tenth of PD (20, 1)'s, with
     // the hub within 1 deg of the target at 0.6 s, on the default preset at no payload.
     let m = model(0.0);
     let smc = schedule(GAIN_TABLE, LawKind::Smc, 0.0).expect("the table has smc rows");

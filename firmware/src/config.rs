@@ -26,8 +26,8 @@ pub const ROWS: &[GainRow] = rows_for(CONTROLLER);
 
 /// The law `kind` for `payload_kg`: the compiled table's rows interpolated on the payload, or
 /// for PD without rows, the baseline gains. `None` if the table has no row for an SMC.
-pub fn law_for(kind: LawKind, payload_kg: f32) -> Option<Law> {
-    model_core::gains::law_for(rows_for(kind), kind, payload_kg)
+pub fn compiled_law(kind: LawKind, payload_kg: f32) -> Option<Law> {
+    model_core::gains::scheduled_law(rows_for(kind), kind, payload_kg)
 }
 
 /// The paper's slew: -90 deg to +90 deg in 0.35 s, and back (model-core's `paper_slew`).
@@ -94,7 +94,7 @@ fn controller_with(
     first: Spline<MOVE_KNOTS>,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let plant = PLANT.at(payload_kg as f64).ok_or(BuildError::Payload)?;
-    let gains = law_for(kind, payload_kg).ok_or(BuildError::NoGains)?;
+    let gains = compiled_law(kind, payload_kg).ok_or(BuildError::NoGains)?;
     let law = ControlLaw::try_build(gains, plant).map_err(BuildError::Gains)?;
     let settings = ControllerSettings {
         theta_home_rad: SLEW_FROM_RAD,

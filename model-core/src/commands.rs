@@ -11,7 +11,7 @@
 use crate::beam::ParamError;
 use crate::controller::{Controller, Mode, Snapshot};
 use crate::error::{CommandError, PlanError};
-use crate::gains::{law_for, schedule_shaper, GainRow};
+use crate::gains::{schedule_shaper, scheduled_law, GainRow};
 use crate::law::{ControlLaw, LawKind};
 use crate::planner::{plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS};
 use crate::plant::Plant;
@@ -362,7 +362,7 @@ fn configure(
     payload_kg: f32,
 ) -> Result<(ControlLaw, Shaper, Limits), SetupError> {
     let point = plant.at(payload_kg as f64).ok_or(SetupError::Payload)?;
-    let gains = law_for(table, kind, payload_kg).ok_or(SetupError::NoGains)?;
+    let gains = scheduled_law(table, kind, payload_kg).ok_or(SetupError::NoGains)?;
     let law = ControlLaw::try_build(gains, point).map_err(SetupError::Gains)?;
     Ok((
         law,

@@ -43,7 +43,7 @@ pub fn schedule(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law
 
 /// The law `kind` for `payload_kg` from `table` ([`schedule`]), or for PD without rows the
 /// baseline gains. `None` if the table has no row for any other law.
-pub fn law_for(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law> {
+pub fn scheduled_law(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law> {
     schedule(table, kind, payload_kg).or(match kind {
         LawKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
         LawKind::Smc | LawKind::SmcStrain | LawKind::PdFf | LawKind::SmcI => None,

@@ -129,7 +129,8 @@ pub struct LoadHold {
 }
 
 impl LoadHold {
-    /// The test: 0.5 N m from 1.0 s to 1.5 s, at most 1 deg, back in 0.3 s.
+    /// The hold test (docs/design.md, section 5): 0.5 N m on the hub from 1.0 s to
+    /// 1.5 s, at most 1 deg off, back within 0.3 s.
     pub const DEFAULT: LoadHold = LoadHold {
         nm: 0.5,
         at_s: 1.0,
@@ -282,7 +283,7 @@ pub struct Outcome {
 }
 
 /// The law for gains `x` (in `spec.params` order).
-pub fn law_for(spec: &Spec, x: &[f64]) -> Law {
+pub fn law_of(spec: &Spec, x: &[f64]) -> Law {
     let get = |name: &str, default: f64| {
         spec.params
             .iter()
@@ -371,7 +372,7 @@ pub fn evaluate<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -
 /// every scenario, the hub error at the move's end + 0.25 s at that quantile, and the load
 /// test in every scenario.
 fn evaluate_robust<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
-    let law = law_for(spec, x);
+    let law = law_of(spec, x);
     let searched = motion_for(spec, x).shaper;
     let runs: Vec<Option<Evaluation>> = spec
         .scenarios
@@ -428,7 +429,7 @@ fn evaluate_robust<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]
 
 /// Runs the closed loop for gains `x` on the nominal plant and scores it.
 fn evaluate_nominal<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
-    let law = law_for(spec, x);
+    let law = law_of(spec, x);
     let opts = SimOptions {
         duration_s: eval_duration(spec),
         motion: motion_for(spec, x),

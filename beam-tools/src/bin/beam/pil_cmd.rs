@@ -7,7 +7,7 @@ use beam_tools::io::files as io;
 use beam_tools::link::pil_host::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
 use beam_tools::link::telemetry::{self, Decoded};
 use clap::Args;
-use firmware::config::law_for;
+use firmware::config::compiled_law;
 use host_tests::plant::Plant;
 use host_tests::sim::SimOptions;
 use model_core::{Beam, LawKind, ModalModel};
@@ -70,7 +70,7 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
         controller: a.controller,
         payload_kg,
     };
-    let law = law_for(cfg.controller, payload_kg)
+    let law = compiled_law(cfg.controller, payload_kg)
         .with_context(|| format!("the gain table has no `{}` rows", cfg.controller))?;
     let out = with_modes!(a.plant.modes, pil_n(&beam, &cfg, &opts))?;
     if let Some(path) = &a.insn_profile {
