@@ -234,12 +234,120 @@ pub struct SplitOptions {
 
 /// Fits one parameter set to all `exps` from `guess` with an `N`-mode model. Returns the
 /// beam, the rig's sensors and the report.
+///
+/// Step 1 is the beam on the prescribed hub ([`fit_beam`]), step 2 the torque balance,
+/// iterated on the density when the torque is the reference ([`solve_balance`]); then come
+/// the balance's spread ([`balance_spread`]), the intervals and trade-offs of both steps,
+/// and the check figures.
 pub fn calibrate_split<const N: usize>(
     exps: &[Experiment],
     guess: &BeamParams,
     options: &SplitOptions,
 ) -> Result<(BeamParams, Sensors, SplitReport), CalibrateError> {
     let reference = options.reference;
+    let g = starting_params(exps, guess, reference)?;
+    let window = hub_window_s(&g);
+    let views = HubViews::of(exps, window);
+    let beam = fit_beam::<N>(
+        exps,
+        &views.hubs,
+        &views.alt_hubs,
+        &views.enc_hubs,
+        &g,
+        options,
+    )?;
+    // The balance's rates from a short fit: it needs them only at the intervals' ends,
+    // where the encoder's noise is averaged by the interval, while a wide fit's smoothing
+    // is a bias that correlates with the motion.
+    let rates: Vec<HubMotion> = exps
+        .iter()
+        .map(|e| HubMotion::of(&e.log, BALANCE_RATE_WINDOW_S))
+        .collect();
+    // The balance's beam follows the logged strain (a steady-state Kalman correction), so
+    // that vibration the prescribed hub does not carry is in R: a hub chattering within an
+    // encoder count at the start of the backward log excites the beam, and without the
+    // correction that log gave Jm half the truth and the torque scale 1.20 (truth 1.05).
+    // The hub's acceleration error, the process noise, is taken as how far it moves with
+    // the half-width halved; the strain's, as step 1's residual.
+    let observers: Vec<StrainObserver> = views
+        .hubs
+        .iter()
+        .zip(&views.alt_hubs[0])
+        .map(|(h, a)| StrainObserver {
+            gauge_scale: beam.gauge_scale,
+            alpha_err: h.alpha_rms_diff(a),
+            strain_err: beam.rms_ue * 1e-6,
+        })
+        .collect();
+    let inputs = BalanceInputs {
+        exps,
+        rates: &rates,
+        observers: &observers,
+    };
+    let balance = solve_balance::<N>(&inputs, &views.hubs, &beam.params, options)?;
+    let d = balance.derived(&balance.coef, reference);
+    if !(d[0] > 0.0 && d[1] > 0.0 && d[4] > 0.0) {
+        return Err(CalibrateError::Unphysical {
+            jm: d[0],
+            density: d[1],
+            torque_scale: d[4],
+        });
+    }
+    let ratio = beam.params.ei_nm2 / beam.params.density_kg_m3;
+    let found = BeamParams {
+        jm_kgm2: d[0],
+        density_kg_m3: d[1],
+        ei_nm2: ratio * d[1],
+        viscous_nms: d[2].max(0.0),
+        coulomb_nm: d[3].max(0.0),
+        ..balance.params
+    };
+    Beam::try_build(found).map_err(|_| CalibrateError::Breakdown { step: "rigid" })?;
+    let sensors = Sensors {
+        torque_scale: d[4],
+        torque_offset_nm: d[5],
+        gauge_scale: beam.gauge_scale,
+    };
+    let spread = balance_spread::<N>(&inputs, &views, &balance, &d, reference)?;
+    let window_shift = window_shifts(&spread, &beam, &balance.params, options);
+    let uncertainty = uncertainties(
+        &spread,
+        &beam,
+        &found,
+        &sensors,
+        options,
+        balance.offset_fitted,
+    );
+    let tradeoffs = tradeoffs(&spread, &beam);
+    let check = check_figures::<N>(exps, &balance, &found, &sensors)?;
+    Ok((
+        found,
+        sensors,
+        SplitReport {
+            sensors,
+            reference: reference.name(),
+            offset_fitted: balance.offset_fitted,
+            beam_rms_strain_err_ue: beam.rms_ue,
+            balance_samples: balance.rows.len(),
+            balance_rms_err_nm: check.balance_rms_err_nm,
+            balance_rms_torque_nm: check.balance_rms_torque_nm,
+            replay_rms_theta_err_rad: check.replay_rms_theta_err_rad,
+            move_span_rad: check.move_span_rad,
+            uncertainty,
+            tradeoffs,
+            window_shift,
+            encoder_step_rad: views.steps,
+        },
+    ))
+}
+
+/// `guess` checked, with a known density put in (EI moved with it, at the ratio), and the
+/// logs checked against the reference.
+fn starting_params(
+    exps: &[Experiment],
+    guess: &BeamParams,
+    reference: Reference,
+) -> Result<BeamParams, CalibrateError> {
     Beam::try_build(*guess)?;
     if exps.is_empty() {
         return Err(CalibrateError::NoLogs);
@@ -258,82 +366,131 @@ pub fn calibrate_split<const N: usize>(
             return Err(CalibrateError::OneTipMass);
         }
     }
-    let window = hub_window_s(&g);
-    let hubs: Vec<HubMotion> = exps.iter().map(|e| HubMotion::of(&e.log, window)).collect();
-    let alt_hubs: Vec<Vec<HubMotion>> = WINDOW_FACTORS
-        .iter()
-        .map(|f| {
-            exps.iter()
-                .map(|e| HubMotion::of(&e.log, (window * f).clamp(HUB_WINDOW_S.0, HUB_WINDOW_S.1)))
-                .collect()
-        })
-        .collect();
-    // The angle quantised again at other phases of its encoder's step (each log that is
-    // quantised; the others as logged), for the results' sensitivity to the encoder.
-    let dt = exps[0].log.t[1] - exps[0].log.t[0];
-    let half = ((window / dt).round() as usize).max(2);
-    let steps: Vec<Option<f64>> = exps.iter().map(|e| encoder_step(&e.log.theta)).collect();
-    let requantised_logs: Vec<Vec<Log>> = if steps.iter().any(Option::is_some) {
-        ENCODER_PHASES
+    Ok(g)
+}
+
+/// The prescribed hub of each log, as fitted and as the results' sensitivities need it.
+struct HubViews {
+    /// At the chosen smoothing width.
+    hubs: Vec<HubMotion>,
+    /// At each of [`WINDOW_FACTORS`] times the width.
+    alt_hubs: Vec<Vec<HubMotion>>,
+    /// Each log's angle quantised again at each of [`ENCODER_PHASES`] of its encoder's step
+    /// (logs not on a grid as logged); empty when no log is.
+    requantised_logs: Vec<Vec<Log>>,
+    /// The hub of each of those.
+    enc_hubs: Vec<Vec<HubMotion>>,
+    /// Each log's encoder step, rad.
+    steps: Vec<Option<f64>>,
+}
+
+impl HubViews {
+    fn of(exps: &[Experiment], window: f64) -> Self {
+        let hubs = exps.iter().map(|e| HubMotion::of(&e.log, window)).collect();
+        let alt_hubs = WINDOW_FACTORS
             .iter()
-            .map(|&phase| {
+            .map(|f| {
                 exps.iter()
-                    .zip(&steps)
-                    .map(|(e, step)| match step {
-                        Some(q) => requantised(&e.log, half, *q, phase),
-                        None => e.log.clone(),
+                    .map(|e| {
+                        HubMotion::of(&e.log, (window * f).clamp(HUB_WINDOW_S.0, HUB_WINDOW_S.1))
                     })
                     .collect()
             })
-            .collect()
-    } else {
-        vec![]
-    };
-    let enc_hubs: Vec<Vec<HubMotion>> = requantised_logs
-        .iter()
-        .map(|logs| logs.iter().map(|l| HubMotion::of(l, window)).collect())
-        .collect();
-    let beam = fit_beam::<N>(exps, &hubs, &alt_hubs, &enc_hubs, &g, options)?;
-    // The balance's rates from a short fit: it needs them only at the intervals' ends,
-    // where the encoder's noise is averaged by the interval, while a wide fit's smoothing
-    // is a bias that correlates with the motion.
-    let rates: Vec<HubMotion> = exps
-        .iter()
-        .map(|e| HubMotion::of(&e.log, BALANCE_RATE_WINDOW_S))
-        .collect();
-    let ratio = beam.params.ei_nm2 / beam.params.density_kg_m3;
-    // The balance's beam follows the logged strain (a steady-state Kalman correction), so
-    // that vibration the prescribed hub does not carry is in R: a hub chattering within an
-    // encoder count at the start of the backward log excites the beam, and without the
-    // correction that log gave Jm half the truth and the torque scale 1.20 (truth 1.05).
-    // The hub's acceleration error, the process noise, is taken as how far it moves with
-    // the half-width halved; the strain's, as step 1's residual.
-    let observers: Vec<StrainObserver> = hubs
-        .iter()
-        .zip(&alt_hubs[0])
-        .map(|(h, a)| StrainObserver {
-            gauge_scale: beam.gauge_scale,
-            alpha_err: h.alpha_rms_diff(a),
-            strain_err: beam.rms_ue * 1e-6,
-        })
-        .collect();
+            .collect();
+        let dt = exps[0].log.t[1] - exps[0].log.t[0];
+        let half = ((window / dt).round() as usize).max(2);
+        let steps: Vec<Option<f64>> = exps.iter().map(|e| encoder_step(&e.log.theta)).collect();
+        let requantised_logs: Vec<Vec<Log>> = if steps.iter().any(Option::is_some) {
+            ENCODER_PHASES
+                .iter()
+                .map(|&phase| {
+                    exps.iter()
+                        .zip(&steps)
+                        .map(|(e, step)| match step {
+                            Some(q) => requantised(&e.log, half, *q, phase),
+                            None => e.log.clone(),
+                        })
+                        .collect()
+                })
+                .collect()
+        } else {
+            vec![]
+        };
+        let enc_hubs = requantised_logs
+            .iter()
+            .map(|logs| logs.iter().map(|l| HubMotion::of(l, window)).collect())
+            .collect();
+        Self {
+            hubs,
+            alt_hubs,
+            requantised_logs,
+            enc_hubs,
+            steps,
+        }
+    }
+}
 
-    // 2. The torque balance. R scales with the density at the ratio (without a tip mass,
-    //    exactly; with one, nearly), so iterate on the density with the trusted torque.
-    let mut p = beam.params;
+/// What every run of the torque balance shares.
+struct BalanceInputs<'a> {
+    exps: &'a [Experiment],
+    /// The hub's rates at the intervals' ends.
+    rates: &'a [HubMotion],
+    /// The strain observers of the balance's beam.
+    observers: &'a [StrainObserver],
+}
+
+/// Step 2's result.
+struct Balance {
+    /// The beam the balance ran on (step 1's, its density iterated with a trusted torque).
+    params: BeamParams,
+    rows: Vec<Row>,
+    /// Jm, the density's factor (or the torque scale), viscous, Coulomb, offset, as fitted.
+    coef: [f64; 5],
+    offset_fitted: bool,
+}
+
+impl Balance {
+    /// `c` as the physical results: [Jm, density, viscous, Coulomb, torque scale, offset].
+    fn derived(&self, c: &[f64; 5], reference: Reference) -> [f64; 6] {
+        let p = &self.params;
+        let s = match reference {
+            Reference::Torque => 1.0,
+            _ => c[1],
+        };
+        let density = match reference {
+            Reference::Torque => p.density_kg_m3 * c[1],
+            Reference::Density(rho) => rho,
+            // Step 1's.
+            Reference::TipMass => p.density_kg_m3,
+        };
+        [c[0] / s, density, c[2] / s, c[3] / s, s, c[4]]
+    }
+}
+
+/// Step 2, the torque balance on `hubs`. R scales with the density at the ratio (without a
+/// tip mass, exactly; with one, nearly), so iterate on the density with the trusted torque.
+fn solve_balance<const N: usize>(
+    inputs: &BalanceInputs,
+    hubs: &[HubMotion],
+    beam: &BeamParams,
+    options: &SplitOptions,
+) -> Result<Balance, CalibrateError> {
+    let ratio = beam.ei_nm2 / beam.density_kg_m3;
+    let mut p = *beam;
     let mut rows = vec![];
     let mut offset_fitted = false;
     let mut coef = [0.0; 5];
     for _ in 0..6 {
         let both_ways;
-        (rows, both_ways) = balance_rows::<N>(exps, &hubs, &rates, &p, &observers)?;
+        (rows, both_ways) =
+            balance_rows::<N>(inputs.exps, hubs, inputs.rates, &p, inputs.observers)?;
         if options.fit_offset && !both_ways {
             return Err(CalibrateError::OneWay);
         }
         offset_fitted = options.fit_offset;
         coef = fit_balance(&rows, offset_fitted)?;
         let scale_now = coef[1];
-        if reference.measures_scale() || (scale_now - 1.0).abs() < 1e-9 {
+        if options.reference.measures_scale() || (scale_now - 1.0).abs() < 1e-9 {
             break;
         }
         // A balance that wants no beam, or a negative one, is the logs' answer, not the
@@ -350,62 +507,66 @@ pub fn calibrate_split<const N: usize>(
         p.ei_nm2 = ratio * p.density_kg_m3;
         Beam::try_build(p).map_err(|_| unphysical)?;
     }
-    let derive = |c: &[f64; 5], p: &BeamParams| -> [f64; 6] {
-        // [Jm, density, viscous, Coulomb, torque scale, offset]
-        let s = match reference {
-            Reference::Torque => 1.0,
-            _ => c[1],
-        };
-        let density = match reference {
-            Reference::Torque => p.density_kg_m3 * c[1],
-            Reference::Density(rho) => rho,
-            // Step 1's.
-            Reference::TipMass => p.density_kg_m3,
-        };
-        [c[0] / s, density, c[2] / s, c[3] / s, s, c[4]]
-    };
-    let d = derive(&coef, &p);
-    if !(d[0] > 0.0 && d[1] > 0.0 && d[4] > 0.0) {
-        return Err(CalibrateError::Unphysical {
-            jm: d[0],
-            density: d[1],
-            torque_scale: d[4],
-        });
-    }
-    let found = BeamParams {
-        jm_kgm2: d[0],
-        density_kg_m3: d[1],
-        ei_nm2: ratio * d[1],
-        viscous_nms: d[2].max(0.0),
-        coulomb_nm: d[3].max(0.0),
-        ..p
-    };
-    Beam::try_build(found).map_err(|_| CalibrateError::Breakdown { step: "rigid" })?;
-    let sensors = Sensors {
-        torque_scale: d[4],
-        torque_offset_nm: d[5],
-        gauge_scale: beam.gauge_scale,
-    };
+    Ok(Balance {
+        params: p,
+        rows,
+        coef,
+        offset_fitted,
+    })
+}
 
-    // The balance's spread by a moving-block bootstrap.
-    let resid: Vec<f64> = rows
+/// The balance's results, named in [`Balance::derived`]'s order.
+const BALANCE_NAMES: [&str; 6] = [
+    "jm_kgm2",
+    "density_kg_m3",
+    "viscous_nms",
+    "coulomb_nm",
+    "torque_scale",
+    "torque_offset_nm",
+];
+
+/// How well the balance's results are known: by a moving-block bootstrap (noise), and by
+/// how far they move with the hub smoothed differently and the angle re-quantised (the
+/// model's error, the encoder's).
+struct BalanceSpread {
+    /// The bootstrap's results, [`Balance::derived`] each.
+    boot: Vec<[f64; 6]>,
+    noise: Vec<f64>,
+    shift: [f64; 6],
+    encoder: [f64; 6],
+    /// The three in quadrature.
+    sd: Vec<f64>,
+    /// The results this reference reports (indices into [`BALANCE_NAMES`]).
+    used: Vec<usize>,
+    reference: Reference,
+}
+
+fn balance_spread<const N: usize>(
+    inputs: &BalanceInputs,
+    views: &HubViews,
+    balance: &Balance,
+    d: &[f64; 6],
+    reference: Reference,
+) -> Result<BalanceSpread, CalibrateError> {
+    let (exps, p, offset_fitted) = (inputs.exps, &balance.params, balance.offset_fitted);
+    let resid: Vec<f64> = balance
+        .rows
         .iter()
-        .map(|r| r.y - r.x.iter().zip(&coef).map(|(x, c)| x * c).sum::<f64>())
+        .map(|r| {
+            r.y - r
+                .x
+                .iter()
+                .zip(&balance.coef)
+                .map(|(x, c)| x * c)
+                .sum::<f64>()
+        })
         .collect();
     let dt0 = exps[0].log.t[1] - exps[0].log.t[0];
     let block_s = (2.0 * decorrelation_lag(&resid) as f64 * dt0).max(MIN_BLOCK_S);
-    let boot = bootstrap(&rows, exps, offset_fitted, block_s)
+    let boot = bootstrap(&balance.rows, exps, offset_fitted, block_s)
         .into_iter()
-        .map(|c| derive(&c, &p))
+        .map(|c| balance.derived(&c, reference))
         .collect::<Vec<_>>();
-    let names = [
-        "jm_kgm2",
-        "density_kg_m3",
-        "viscous_nms",
-        "coulomb_nm",
-        "torque_scale",
-        "torque_offset_nm",
-    ];
     let mean_sd = |i: usize| -> f64 {
         let n = boot.len().max(1) as f64;
         let m = boot.iter().map(|b| b[i]).sum::<f64>() / n;
@@ -414,24 +575,24 @@ pub fn calibrate_split<const N: usize>(
     // The model's error as the balance's sensitivity to the hub's smoothing, added to the
     // noise in quadrature.
     let mut shift = [0.0f64; 6];
-    for alt in &alt_hubs {
-        let (alt_rows, _) = balance_rows::<N>(exps, alt, &rates, &p, &observers)?;
-        let da = derive(&fit_balance(&alt_rows, offset_fitted)?, &p);
-        for (s, (a, b)) in shift.iter_mut().zip(da.iter().zip(&d)) {
+    for alt in &views.alt_hubs {
+        let (alt_rows, _) = balance_rows::<N>(exps, alt, inputs.rates, p, inputs.observers)?;
+        let da = balance.derived(&fit_balance(&alt_rows, offset_fitted)?, reference);
+        for (s, (a, b)) in shift.iter_mut().zip(da.iter().zip(d)) {
             *s = s.max((a - b).abs());
         }
     }
     // And to the encoder: the RMS shift over the re-quantised angles, the rates at the
     // intervals' ends taken from them too.
     let mut encoder = [0.0f64; 6];
-    for (logs, hub) in requantised_logs.iter().zip(&enc_hubs) {
+    for (logs, hub) in views.requantised_logs.iter().zip(&views.enc_hubs) {
         let enc_rates: Vec<HubMotion> = logs
             .iter()
             .map(|l| HubMotion::of(l, BALANCE_RATE_WINDOW_S))
             .collect();
-        let (alt_rows, _) = balance_rows::<N>(exps, hub, &enc_rates, &p, &observers)?;
-        let da = derive(&fit_balance(&alt_rows, offset_fitted)?, &p);
-        for (s, (a, b)) in encoder.iter_mut().zip(da.iter().zip(&d)) {
+        let (alt_rows, _) = balance_rows::<N>(exps, hub, &enc_rates, p, inputs.observers)?;
+        let da = balance.derived(&fit_balance(&alt_rows, offset_fitted)?, reference);
+        for (s, (a, b)) in encoder.iter_mut().zip(da.iter().zip(d)) {
             *s += (a - b).powi(2) / ENCODER_PHASES.len() as f64;
         }
     }
@@ -449,17 +610,37 @@ pub fn calibrate_split<const N: usize>(
             _ => true,
         })
         .collect();
-    let mut window_shift: Vec<WindowShift> = used
+    Ok(BalanceSpread {
+        boot,
+        noise,
+        shift,
+        encoder,
+        sd,
+        used,
+        reference,
+    })
+}
+
+/// Each result's noise, and its shifts with the hub's smoothing and the encoder: the
+/// balance's, then step 1's in the parameters' units (EI's from EI/rho alone unless step 1
+/// fits the density too).
+fn window_shifts(
+    spread: &BalanceSpread,
+    beam: &BeamFit,
+    p: &BeamParams,
+    options: &SplitOptions,
+) -> Vec<WindowShift> {
+    let reference = spread.reference;
+    let mut window_shift: Vec<WindowShift> = spread
+        .used
         .iter()
         .map(|&i| WindowShift {
-            name: names[i],
-            noise: noise[i],
-            shift: shift[i],
-            encoder: encoder[i],
+            name: BALANCE_NAMES[i],
+            noise: spread.noise[i],
+            shift: spread.shift[i],
+            encoder: spread.encoder[i],
         })
         .collect();
-    // Step 1's, in the parameters' units (EI's from EI/rho alone unless step 1 fits the
-    // density too).
     let (ei_noise, ei_shift, ei_encoder) = match reference {
         Reference::TipMass => (beam.ln_ei_std_err, beam.ln_ei_shift, beam.ln_ei_encoder),
         _ => (beam.std_err[0], beam.shift[0], beam.encoder[0]),
@@ -472,41 +653,33 @@ pub fn calibrate_split<const N: usize>(
             encoder: encoder * unit,
         })
     };
+    let slot = |i: usize| (beam.std_err[i], beam.shift[i], beam.encoder[i]);
     beam_shift("ei_nm2", p.ei_nm2, ei_noise, ei_shift, ei_encoder);
     if reference == Reference::TipMass {
-        let rho = p.density_kg_m3;
-        beam_shift(
-            "density_kg_m3",
-            rho,
-            beam.std_err[4],
-            beam.shift[4],
-            beam.encoder[4],
-        );
+        let (n, s, e) = slot(4);
+        beam_shift("density_kg_m3", p.density_kg_m3, n, s, e);
     }
-    let zeta = p.damping_ratio;
-    beam_shift(
-        "damping_ratio",
-        zeta,
-        beam.std_err[1],
-        beam.shift[1],
-        beam.encoder[1],
-    );
+    let (n, s, e) = slot(1);
+    beam_shift("damping_ratio", p.damping_ratio, n, s, e);
     if options.fit_gauge_position {
-        beam_shift(
-            "root_gauge_m",
-            1.0,
-            beam.std_err[2],
-            beam.shift[2],
-            beam.encoder[2],
-        );
+        let (n, s, e) = slot(2);
+        beam_shift("root_gauge_m", 1.0, n, s, e);
     }
-    beam_shift(
-        "gauge_scale",
-        1.0,
-        beam.std_err[3],
-        beam.shift[3],
-        beam.encoder[3],
-    );
+    let (n, s, e) = slot(3);
+    beam_shift("gauge_scale", 1.0, n, s, e);
+    window_shift
+}
+
+/// The one-sigma intervals of everything found.
+fn uncertainties(
+    spread: &BalanceSpread,
+    beam: &BeamFit,
+    found: &BeamParams,
+    sensors: &Sensors,
+    options: &SplitOptions,
+    offset_fitted: bool,
+) -> Vec<Uncertainty> {
+    let (reference, sd) = (spread.reference, &spread.sd);
     let mut uncertainty = vec![];
     let mut add = |name: &'static str, value: f64, std_err: f64| {
         uncertainty.push(Uncertainty {
@@ -576,6 +749,14 @@ pub fn calibrate_split<const N: usize>(
         add("root_gauge_m", found.root_gauge_m, bsd(2));
     }
     add("gauge_scale", sensors.gauge_scale, bsd(3));
+    uncertainty
+}
+
+/// Pairs of results that correlate beyond [`TRADEOFF_CORRELATION`]: step 1's by its
+/// Gauss-Newton covariance, the balance's by the bootstrap.
+///
+/// [`TRADEOFF_CORRELATION`]: crate::identify::calibrate::TRADEOFF_CORRELATION
+fn tradeoffs(spread: &BalanceSpread, beam: &BeamFit) -> Vec<Tradeoff> {
     let mut tradeoffs = vec![];
     let beam_names = [
         "ei_over_density",
@@ -596,27 +777,43 @@ pub fn calibrate_split<const N: usize>(
             }
         }
     }
+    let used = &spread.used;
     for (ia, &a) in used.iter().enumerate() {
         for &b in &used[ia + 1..] {
-            let c = correlation(&boot, a, b);
+            let c = correlation(&spread.boot, a, b);
             if c.abs() > crate::identify::calibrate::TRADEOFF_CORRELATION {
                 tradeoffs.push(Tradeoff {
-                    a: names[a],
-                    b: names[b],
+                    a: BALANCE_NAMES[a],
+                    b: BALANCE_NAMES[b],
                     correlation: c,
                 });
             }
         }
     }
+    tradeoffs
+}
 
-    // Figures: the balance's residual, and the open-loop replay as a check.
+/// The figures that check the result: the balance's residual, and the open-loop replay.
+struct CheckFigures {
+    balance_rms_err_nm: f64,
+    balance_rms_torque_nm: f64,
+    replay_rms_theta_err_rad: f64,
+    move_span_rad: f64,
+}
+
+fn check_figures<const N: usize>(
+    exps: &[Experiment],
+    balance: &Balance,
+    found: &BeamParams,
+    sensors: &Sensors,
+) -> Result<CheckFigures, CalibrateError> {
     let (mut se, mut sy) = (0.0, 0.0);
-    for r in &rows {
-        let fit: f64 = r.x.iter().zip(&coef).map(|(x, c)| x * c).sum();
+    for r in &balance.rows {
+        let fit: f64 = r.x.iter().zip(&balance.coef).map(|(x, c)| x * c).sum();
         se += (r.y - fit).powi(2);
         sy += r.y * r.y;
     }
-    let nr = rows.len().max(1) as f64;
+    let nr = balance.rows.len().max(1) as f64;
     let (mut th_se, mut th_n, mut span) = (0.0, 0usize, 0.0f64);
     for e in exps {
         let (lo, hi) = (0..e.log.t.len())
@@ -627,8 +824,8 @@ pub fn calibrate_split<const N: usize>(
         if hi > lo {
             span = span.max(hi - lo);
         }
-        let log = corrected(&e.log, &sensors);
-        let (th, _) = replay::<N>(&e.params(&found), &log, e.windows.settle_end_s)
+        let log = corrected(&e.log, sensors);
+        let (th, _) = replay::<N>(&e.params(found), &log, e.windows.settle_end_s)
             .ok_or(CalibrateError::Breakdown { step: "rigid" })?;
         for (k, th) in th.iter().enumerate() {
             if in_window(e, k) {
@@ -637,25 +834,12 @@ pub fn calibrate_split<const N: usize>(
             }
         }
     }
-    Ok((
-        found,
-        sensors,
-        SplitReport {
-            sensors,
-            reference: reference.name(),
-            offset_fitted,
-            beam_rms_strain_err_ue: beam.rms_ue,
-            balance_samples: rows.len(),
-            balance_rms_err_nm: (se / nr).sqrt(),
-            balance_rms_torque_nm: (sy / nr).sqrt(),
-            replay_rms_theta_err_rad: (th_se / th_n.max(1) as f64).sqrt(),
-            move_span_rad: span,
-            uncertainty,
-            tradeoffs,
-            window_shift,
-            encoder_step_rad: steps,
-        },
-    ))
+    Ok(CheckFigures {
+        balance_rms_err_nm: (se / nr).sqrt(),
+        balance_rms_torque_nm: (sy / nr).sqrt(),
+        replay_rms_theta_err_rad: (th_se / th_n.max(1) as f64).sqrt(),
+        move_span_rad: span,
+    })
 }
 
 /// Step 1: EI (at `g`'s density), damping, the gauge's position (if asked) and, with the
