@@ -844,7 +844,8 @@ fn check_figures<const N: usize>(
 
 /// Step 1: EI (at `g`'s density), damping, the gauge's position (if asked) and, with the
 /// tip mass as the reference, the density (EI moving with it, at the ratio) by search; the
-/// gauge's scale in closed form; on every log's move and settling.
+/// gauge's scale in closed form; on every log's move and settling. Then Levenberg-Marquardt
+/// from the search's result, the Gauss-Newton intervals, and the shifts with the hub.
 fn fit_beam<const N: usize>(
     exps: &[Experiment],
     hubs: &[HubMotion],
@@ -853,262 +854,32 @@ fn fit_beam<const N: usize>(
     g: &BeamParams,
     options: &SplitOptions,
 ) -> Result<BeamFit, CalibrateError> {
-    // The searched coordinates, by slot: 0 EI at the density, 1 damping, 2 the gauge's
-    // position, 4 the density and EI together (3, the gauge's scale, is closed form).
-    let mut kinds = vec![0usize, 1];
-    if options.fit_gauge_position {
-        kinds.push(2);
-    }
-    if options.reference == Reference::TipMass {
-        kinds.push(4);
-    }
-    let range = |kind: usize| match kind {
-        0 => Param {
-            name: "ei_nm2",
-            lo: g.ei_nm2 / 2.0,
-            hi: g.ei_nm2 * 2.0,
-            log: true,
-        },
-        1 => Param {
-            name: "damping_ratio",
-            lo: 1e-3,
-            hi: 0.2,
-            log: true,
-        },
-        2 => Param {
-            name: "root_gauge_m",
-            lo: 0.0,
-            hi: 0.2 * g.length_m,
-            log: false,
-        },
-        _ => Param {
-            name: "density_kg_m3",
-            lo: g.density_kg_m3 / 3.0,
-            hi: g.density_kg_m3 * 3.0,
-            log: true,
-        },
-    };
-    let at = |u: &[f64]| {
-        let mut p = *g;
-        for (&kind, &x) in kinds.iter().zip(u) {
-            let v = range(kind).gain_at(x);
-            match kind {
-                0 => p.ei_nm2 = v,
-                1 => p.damping_ratio = v,
-                2 => p.root_gauge_m = v,
-                _ => p.density_kg_m3 = v,
-            }
-        }
-        // The density moves EI with it: the search's EI is at the guess's density.
-        p.ei_nm2 *= p.density_kg_m3 / g.density_kg_m3;
-        p
-    };
-    // Model and measured strain (ue) over every log's window.
-    let strains_on = |p: &BeamParams, hubs: &[HubMotion]| -> Option<(Vec<f64>, Vec<f64>)> {
-        let (mut model, mut measured) = (vec![], vec![]);
-        for (e, hub) in exps.iter().zip(hubs) {
-            let eps = prescribed::<N>(&e.params(p), &e.log, hub)?.root_strain;
-            for (k, m) in eps.iter().enumerate() {
-                if in_window(e, k) {
-                    model.push(m * 1e6);
-                    measured.push(e.log.root_strain[k] * 1e6);
-                }
-            }
-        }
-        Some((model, measured))
-    };
-    let strains = |p: &BeamParams| strains_on(p, hubs);
-    // With the best gauge scale s = pm/pp the residual is mm - pm^2/pp.
-    let sums = |m: &[f64], y: &[f64]| -> (f64, f64, f64) {
-        m.iter()
-            .zip(y)
-            .fold((0.0, 0.0, 0.0), |(pm, pp, mm), (a, b)| {
-                (pm + a * b, pp + a * a, mm + b * b)
-            })
-    };
-    let cost = |u: &[f64]| -> f64 {
-        match strains(&at(u)) {
-            Some((m, y)) if !m.is_empty() => {
-                let (pm, pp, mm) = sums(&m, &y);
-                if pp > 0.0 {
-                    ((mm - pm * pm / pp).max(0.0) / m.len() as f64 + 1e-12).ln()
-                } else {
-                    1e3
-                }
-            }
-            _ => 1e3,
-        }
-    };
-    let dims = kinds.len();
-    let start: Vec<f64> = kinds
-        .iter()
-        .map(|&kind| {
-            range(kind).unit_of(match kind {
-                0 => g.ei_nm2,
-                1 => g.damping_ratio.max(1e-3),
-                2 => g.root_gauge_m,
-                _ => g.density_kg_m3,
-            })
-        })
-        .collect();
-    let u = minimise(dims, start, options.evals, 0x5B17 ^ dims as u64, &cost);
-
-    // A step of `d` in the Gauss-Newton coordinates (ln EI/rho, ln zeta, gauge, ln rho at
-    // the ratio) from `q`.
-    let step = |q: &BeamParams, kind: usize, d: f64| {
-        let mut q = *q;
-        match kind {
-            0 => q.ei_nm2 *= d.exp(),
-            1 => q.damping_ratio *= d.exp(),
-            2 => q.root_gauge_m = (q.root_gauge_m + d).max(0.0),
-            _ => {
-                q.ei_nm2 *= d.exp();
-                q.density_kg_m3 *= d.exp();
-            }
-        }
-        q
-    };
-    // At `q`: the model's strain, the measured, the gauge's scale and the columns
-    // d(scale x model)/d(coordinates) by central differences, then the model itself for
-    // the scale. (At the gauge's lower bound the difference is one-sided: the step down
-    // is clamped.)
-    type Jac = (Vec<f64>, Vec<f64>, f64, Vec<Vec<f64>>);
-    let jacobian = |q: &BeamParams, hubs: &[HubMotion]| -> Result<Jac, CalibrateError> {
-        let breakdown = || CalibrateError::Breakdown { step: "beam" };
-        let strains = |p: &BeamParams| strains_on(p, hubs);
-        let (m0, y) = strains(q).ok_or_else(breakdown)?;
-        let (pm, pp, _) = sums(&m0, &y);
-        if !(pp > 0.0) {
-            return Err(breakdown());
-        }
-        let scale = pm / pp;
-        let mut cols: Vec<Vec<f64>> = vec![];
-        for &kind in &kinds {
-            let h = if kind == 2 { 1e-4 } else { 1e-3 };
-            let (qu, qd) = (step(q, kind, h), step(q, kind, -h));
-            let dh = match kind {
-                2 => qu.root_gauge_m - qd.root_gauge_m,
-                _ => 2.0 * h,
-            };
-            let (Some((up, _)), Some((down, _))) = (strains(&qu), strains(&qd)) else {
-                return Err(breakdown());
-            };
-            cols.push(
-                up.iter()
-                    .zip(&down)
-                    .map(|(a, b)| scale * (a - b) / dh)
-                    .collect(),
-            );
-        }
-        cols.push(m0.clone());
-        Ok((m0, y, scale, cols))
-    };
-    let rss = |m: &[f64], y: &[f64], scale: f64| -> f64 {
-        m.iter().zip(y).map(|(m, y)| (y - scale * m).powi(2)).sum()
-    };
-
-    // Levenberg-Marquardt from the search's result: the search stops short in a long
-    // valley (a tip mass's density against EI/rho correlate at -0.9999 on a smooth move),
-    // and the standard errors below hold only at the minimum.
-    let polish =
-        |mut params: BeamParams, hubs: &[HubMotion]| -> Result<(BeamParams, Jac), CalibrateError> {
-            let strains = |p: &BeamParams| strains_on(p, hubs);
-            let (mut m0, mut y, mut scale, mut cols) = jacobian(&params, hubs)?;
-            let mut lambda = 1e-3;
-            for _ in 0..POLISH_ITERATIONS {
-                let k = cols.len();
-                let resid: Vec<f64> = m0.iter().zip(&y).map(|(m, y)| y - scale * m).collect();
-                let mut a = vec![vec![0.0; k]; k];
-                let mut g = vec![0.0; k];
-                for i in 0..k {
-                    for j in 0..k {
-                        a[i][j] = cols[i].iter().zip(&cols[j]).map(|(p, q)| p * q).sum();
-                    }
-                    g[i] = cols[i].iter().zip(&resid).map(|(p, r)| p * r).sum();
-                }
-                let before = rss(&m0, &y, scale);
-                let mut improved = false;
-                while lambda < 1e6 {
-                    let mut damped = a.clone();
-                    for (i, row) in damped.iter_mut().enumerate() {
-                        row[i] += lambda * a[i][i];
-                    }
-                    let Some(d) = crate::identify::lsq::solve(damped, g.clone()) else {
-                        lambda *= 10.0;
-                        continue;
-                    };
-                    let mut q = params;
-                    for (&kind, &d) in kinds.iter().zip(&d) {
-                        q = step(&q, kind, d.clamp(-0.3, 0.3));
-                    }
-                    if Beam::try_build(q).is_ok() {
-                        if let Some((m, yy)) = strains(&q) {
-                            let (pm, pp, _) = sums(&m, &yy);
-                            if pp > 0.0 && rss(&m, &yy, pm / pp) < before {
-                                params = q;
-                                improved = true;
-                                lambda = (lambda / 10.0).max(1e-6);
-                                break;
-                            }
-                        }
-                    }
-                    lambda *= 10.0;
-                }
-                if !improved {
-                    break;
-                }
-                (m0, y, scale, cols) = jacobian(&params, hubs)?;
-                let after = rss(&m0, &y, scale);
-                if before - after < 1e-6 * before {
-                    break;
-                }
-            }
-            Ok((params, (m0, y, scale, cols)))
-        };
-    let (params, (m0, y, scale, cols)) = polish(at(&u), hubs)?;
-    let n = m0.len();
-    let rms_ue = (rss(&m0, &y, scale) / n as f64).sqrt();
-
-    let mut slots = kinds.clone();
-    slots.push(3);
-    let resid: Vec<f64> = m0.iter().zip(&y).map(|(m, y)| y - scale * m).collect();
-    let k = cols.len();
-    let mut normal = Normal::new(k);
-    for i in 0..n {
-        let x: Vec<f64> = cols.iter().map(|c| c[i]).collect();
-        normal.add(&x, resid[i]);
-    }
-    let inv = normal.solve().map(|f| f.xtx_inv);
-    let s2 = resid.iter().map(|r| r * r).sum::<f64>() / (n.saturating_sub(k)).max(1) as f64;
-    let inflation = autocorrelation_inflation(&resid);
-    let (mut std_err, mut corr, mut cov) = ([0.0; 5], [[0.0; 5]; 5], [[0.0; 5]; 5]);
-    let mut ln_ei_std_err = f64::INFINITY;
-    match inv {
-        Some(inv) => {
-            for i in 0..k {
-                std_err[slots[i]] = (s2 * inflation * inv[i][i]).max(0.0).sqrt();
-                for j in 0..k {
-                    corr[slots[i]][slots[j]] = inv[i][j] / (inv[i][i] * inv[j][j]).sqrt();
-                    cov[slots[i]][slots[j]] = s2 * inflation * inv[i][j];
-                }
-            }
-            // ln EI = ln EI/rho + ln rho.
-            ln_ei_std_err = (cov[0][0] + cov[4][4] + 2.0 * cov[0][4]).max(0.0).sqrt();
-        }
-        None => std_err = [f64::INFINITY; 5],
-    }
+    let search = BeamSearch::new(exps, g, options);
+    let dims = search.kinds.len();
+    let u = minimise(
+        dims,
+        search.start(),
+        options.evals,
+        0x5B17 ^ dims as u64,
+        &|u: &[f64]| search.cost::<N>(u, hubs),
+    );
+    let (params, jac) = search.polish::<N>(search.at(&u), hubs)?;
+    let n = jac.model.len();
+    let rms_ue = (rss(&jac.model, &jac.measured, jac.scale) / n as f64).sqrt();
+    let (std_err, corr, ln_ei_std_err) = search.intervals(&jac);
+    let scale = jac.scale;
     // The model's error as the fit's sensitivity to the hub: the fit polished again from
     // the result on the strain of the beam driven by another hub (one Gauss-Newton step
     // from the same Jacobian saw about half of the encoder's shift: it moves EI and the
     // damping together). Each shift by slot, and ln EI's.
     let shift_on = |hub: &[HubMotion]| -> Result<([f64; 5], f64), CalibrateError> {
-        let (q, (_, _, q_scale, _)) = polish(params, hub)?;
+        let (q, q_jac) = search.polish::<N>(params, hub)?;
         Ok((
             [
                 (q.ei_nm2 / q.density_kg_m3).ln() - (params.ei_nm2 / params.density_kg_m3).ln(),
                 (q.damping_ratio / params.damping_ratio).ln(),
                 q.root_gauge_m - params.root_gauge_m,
-                q_scale - scale,
+                q_jac.scale - scale,
                 (q.density_kg_m3 / params.density_kg_m3).ln(),
             ],
             (q.ei_nm2 / params.ei_nm2).ln(),
@@ -1145,6 +916,313 @@ fn fit_beam<const N: usize>(
         encoder,
         ln_ei_encoder,
     })
+}
+
+/// Step 1's search: the coordinates it moves, from the starting parameters.
+struct BeamSearch<'a> {
+    exps: &'a [Experiment],
+    g: &'a BeamParams,
+    /// The searched coordinates, by slot: 0 EI at the density, 1 damping, 2 the gauge's
+    /// position, 4 the density and EI together (3, the gauge's scale, is closed form).
+    kinds: Vec<usize>,
+}
+
+/// The model's strain and the measured one (ue) over every log's window, the gauge's best
+/// scale, and the columns d(scale x model)/d(coordinates), the model itself last (for the
+/// scale).
+struct Jacobian {
+    model: Vec<f64>,
+    measured: Vec<f64>,
+    scale: f64,
+    cols: Vec<Vec<f64>>,
+}
+
+/// With the best gauge scale s = pm/pp the residual is mm - pm^2/pp.
+fn sums(m: &[f64], y: &[f64]) -> (f64, f64, f64) {
+    m.iter()
+        .zip(y)
+        .fold((0.0, 0.0, 0.0), |(pm, pp, mm), (a, b)| {
+            (pm + a * b, pp + a * a, mm + b * b)
+        })
+}
+
+/// The residual sum of squares with the gauge's scale `scale`.
+fn rss(m: &[f64], y: &[f64], scale: f64) -> f64 {
+    m.iter().zip(y).map(|(m, y)| (y - scale * m).powi(2)).sum()
+}
+
+impl<'a> BeamSearch<'a> {
+    fn new(exps: &'a [Experiment], g: &'a BeamParams, options: &SplitOptions) -> Self {
+        let mut kinds = vec![0usize, 1];
+        if options.fit_gauge_position {
+            kinds.push(2);
+        }
+        if options.reference == Reference::TipMass {
+            kinds.push(4);
+        }
+        Self { exps, g, kinds }
+    }
+
+    /// The search's range of a coordinate.
+    fn range(&self, kind: usize) -> Param {
+        let g = self.g;
+        match kind {
+            0 => Param {
+                name: "ei_nm2",
+                lo: g.ei_nm2 / 2.0,
+                hi: g.ei_nm2 * 2.0,
+                log: true,
+            },
+            1 => Param {
+                name: "damping_ratio",
+                lo: 1e-3,
+                hi: 0.2,
+                log: true,
+            },
+            2 => Param {
+                name: "root_gauge_m",
+                lo: 0.0,
+                hi: 0.2 * g.length_m,
+                log: false,
+            },
+            _ => Param {
+                name: "density_kg_m3",
+                lo: g.density_kg_m3 / 3.0,
+                hi: g.density_kg_m3 * 3.0,
+                log: true,
+            },
+        }
+    }
+
+    /// The starting point in the search's unit coordinates.
+    fn start(&self) -> Vec<f64> {
+        let g = self.g;
+        self.kinds
+            .iter()
+            .map(|&kind| {
+                self.range(kind).unit_of(match kind {
+                    0 => g.ei_nm2,
+                    1 => g.damping_ratio.max(1e-3),
+                    2 => g.root_gauge_m,
+                    _ => g.density_kg_m3,
+                })
+            })
+            .collect()
+    }
+
+    /// The parameters at unit coordinates `u`.
+    fn at(&self, u: &[f64]) -> BeamParams {
+        let mut p = *self.g;
+        for (&kind, &x) in self.kinds.iter().zip(u) {
+            let v = self.range(kind).gain_at(x);
+            match kind {
+                0 => p.ei_nm2 = v,
+                1 => p.damping_ratio = v,
+                2 => p.root_gauge_m = v,
+                _ => p.density_kg_m3 = v,
+            }
+        }
+        // The density moves EI with it: the search's EI is at the guess's density.
+        p.ei_nm2 *= p.density_kg_m3 / self.g.density_kg_m3;
+        p
+    }
+
+    /// Model and measured strain (ue) over every log's window, the beam driven by `hubs`.
+    fn strains<const N: usize>(
+        &self,
+        p: &BeamParams,
+        hubs: &[HubMotion],
+    ) -> Option<(Vec<f64>, Vec<f64>)> {
+        let (mut model, mut measured) = (vec![], vec![]);
+        for (e, hub) in self.exps.iter().zip(hubs) {
+            let eps = prescribed::<N>(&e.params(p), &e.log, hub)?.root_strain;
+            for (k, m) in eps.iter().enumerate() {
+                if in_window(e, k) {
+                    model.push(m * 1e6);
+                    measured.push(e.log.root_strain[k] * 1e6);
+                }
+            }
+        }
+        Some((model, measured))
+    }
+
+    /// The search's cost at `u`: the log of the mean squared residual at the best scale.
+    fn cost<const N: usize>(&self, u: &[f64], hubs: &[HubMotion]) -> f64 {
+        match self.strains::<N>(&self.at(u), hubs) {
+            Some((m, y)) if !m.is_empty() => {
+                let (pm, pp, mm) = sums(&m, &y);
+                if pp > 0.0 {
+                    ((mm - pm * pm / pp).max(0.0) / m.len() as f64 + 1e-12).ln()
+                } else {
+                    1e3
+                }
+            }
+            _ => 1e3,
+        }
+    }
+
+    /// A step of `d` in the Gauss-Newton coordinates (ln EI/rho, ln zeta, gauge, ln rho at
+    /// the ratio) from `q`.
+    fn step(q: &BeamParams, kind: usize, d: f64) -> BeamParams {
+        let mut q = *q;
+        match kind {
+            0 => q.ei_nm2 *= d.exp(),
+            1 => q.damping_ratio *= d.exp(),
+            2 => q.root_gauge_m = (q.root_gauge_m + d).max(0.0),
+            _ => {
+                q.ei_nm2 *= d.exp();
+                q.density_kg_m3 *= d.exp();
+            }
+        }
+        q
+    }
+
+    /// At `q`: the model's strain, the measured, the gauge's scale and the columns by
+    /// central differences. (At the gauge's lower bound the difference is one-sided: the
+    /// step down is clamped.)
+    fn jacobian<const N: usize>(
+        &self,
+        q: &BeamParams,
+        hubs: &[HubMotion],
+    ) -> Result<Jacobian, CalibrateError> {
+        let breakdown = || CalibrateError::Breakdown { step: "beam" };
+        let (m0, y) = self.strains::<N>(q, hubs).ok_or_else(breakdown)?;
+        let (pm, pp, _) = sums(&m0, &y);
+        if !(pp > 0.0) {
+            return Err(breakdown());
+        }
+        let scale = pm / pp;
+        let mut cols: Vec<Vec<f64>> = vec![];
+        for &kind in &self.kinds {
+            let h = if kind == 2 { 1e-4 } else { 1e-3 };
+            let (qu, qd) = (Self::step(q, kind, h), Self::step(q, kind, -h));
+            let dh = match kind {
+                2 => qu.root_gauge_m - qd.root_gauge_m,
+                _ => 2.0 * h,
+            };
+            let (Some((up, _)), Some((down, _))) =
+                (self.strains::<N>(&qu, hubs), self.strains::<N>(&qd, hubs))
+            else {
+                return Err(breakdown());
+            };
+            cols.push(
+                up.iter()
+                    .zip(&down)
+                    .map(|(a, b)| scale * (a - b) / dh)
+                    .collect(),
+            );
+        }
+        cols.push(m0.clone());
+        Ok(Jacobian {
+            model: m0,
+            measured: y,
+            scale,
+            cols,
+        })
+    }
+
+    /// Levenberg-Marquardt from `params` on `hubs`: the search stops short in a long valley
+    /// (a tip mass's density against EI/rho correlate at -0.9999 on a smooth move), and the
+    /// standard errors hold only at the minimum.
+    fn polish<const N: usize>(
+        &self,
+        mut params: BeamParams,
+        hubs: &[HubMotion],
+    ) -> Result<(BeamParams, Jacobian), CalibrateError> {
+        let mut jac = self.jacobian::<N>(&params, hubs)?;
+        let mut lambda = 1e-3;
+        for _ in 0..POLISH_ITERATIONS {
+            let Jacobian {
+                model: m0,
+                measured: y,
+                scale,
+                cols,
+            } = &jac;
+            let k = cols.len();
+            let resid: Vec<f64> = m0.iter().zip(y).map(|(m, y)| y - scale * m).collect();
+            let mut a = vec![vec![0.0; k]; k];
+            let mut g = vec![0.0; k];
+            for i in 0..k {
+                for j in 0..k {
+                    a[i][j] = cols[i].iter().zip(&cols[j]).map(|(p, q)| p * q).sum();
+                }
+                g[i] = cols[i].iter().zip(&resid).map(|(p, r)| p * r).sum();
+            }
+            let before = rss(m0, y, *scale);
+            let mut improved = false;
+            while lambda < 1e6 {
+                let mut damped = a.clone();
+                for (i, row) in damped.iter_mut().enumerate() {
+                    row[i] += lambda * a[i][i];
+                }
+                let Some(d) = crate::identify::lsq::solve(damped, g.clone()) else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let mut q = params;
+                for (&kind, &d) in self.kinds.iter().zip(&d) {
+                    q = Self::step(&q, kind, d.clamp(-0.3, 0.3));
+                }
+                if Beam::try_build(q).is_ok() {
+                    if let Some((m, yy)) = self.strains::<N>(&q, hubs) {
+                        let (pm, pp, _) = sums(&m, &yy);
+                        if pp > 0.0 && rss(&m, &yy, pm / pp) < before {
+                            params = q;
+                            improved = true;
+                            lambda = (lambda / 10.0).max(1e-6);
+                            break;
+                        }
+                    }
+                }
+                lambda *= 10.0;
+            }
+            if !improved {
+                break;
+            }
+            jac = self.jacobian::<N>(&params, hubs)?;
+            let after = rss(&jac.model, &jac.measured, jac.scale);
+            if before - after < 1e-6 * before {
+                break;
+            }
+        }
+        Ok((params, jac))
+    }
+
+    /// Gauss-Newton standard errors and correlations at the fit, by slot (zero where held),
+    /// inflated for the residuals' autocorrelation; and ln EI's (ln EI/rho plus ln rho).
+    fn intervals(&self, jac: &Jacobian) -> ([f64; 5], [[f64; 5]; 5], f64) {
+        let (m0, y, scale, cols) = (&jac.model, &jac.measured, jac.scale, &jac.cols);
+        let n = m0.len();
+        let mut slots = self.kinds.clone();
+        slots.push(3);
+        let resid: Vec<f64> = m0.iter().zip(y).map(|(m, y)| y - scale * m).collect();
+        let k = cols.len();
+        let mut normal = Normal::new(k);
+        for i in 0..n {
+            let x: Vec<f64> = cols.iter().map(|c| c[i]).collect();
+            normal.add(&x, resid[i]);
+        }
+        let inv = normal.solve().map(|f| f.xtx_inv);
+        let s2 = resid.iter().map(|r| r * r).sum::<f64>() / (n.saturating_sub(k)).max(1) as f64;
+        let inflation = autocorrelation_inflation(&resid);
+        let (mut std_err, mut corr, mut cov) = ([0.0; 5], [[0.0; 5]; 5], [[0.0; 5]; 5]);
+        let mut ln_ei_std_err = f64::INFINITY;
+        match inv {
+            Some(inv) => {
+                for i in 0..k {
+                    std_err[slots[i]] = (s2 * inflation * inv[i][i]).max(0.0).sqrt();
+                    for j in 0..k {
+                        corr[slots[i]][slots[j]] = inv[i][j] / (inv[i][i] * inv[j][j]).sqrt();
+                        cov[slots[i]][slots[j]] = s2 * inflation * inv[i][j];
+                    }
+                }
+                // ln EI = ln EI/rho + ln rho.
+                ln_ei_std_err = (cov[0][0] + cov[4][4] + 2.0 * cov[0][4]).max(0.0).sqrt();
+            }
+            None => std_err = [f64::INFINITY; 5],
+        }
+        (std_err, corr, ln_ei_std_err)
+    }
 }
 
 /// `(1 + r) / (1 - r)` for the residuals' lag-one autocorrelation `r` (clamped to
