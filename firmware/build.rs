@@ -1,15 +1,12 @@
 //! Puts `memory.x` where the linker finds it (the cortex-m-quickstart pattern), and computes
 //! the start button's two moves on the host: the paper's slew out and back for the drive's
-//! law and payload (`src/choice.rs`), shaped by the compiled table's shaper. The drive
+//! law and payload (the gain table's `[drive]`), shaped by the compiled table's shaper. The drive
 //! rebuilds the same splines from these knots (`config::sequence`) and links none of the
 //! shaping; a test checks they equal `config::sequence_for` computed at run time.
-use model_core::gains::{rows_for, schedule_shaper};
+use model_core::gains::{rows_for, schedule_shaper, DRIVE};
 use model_core::shaper::{shaped_quintic_knots, MoveKnots, Timing};
 use model_core::spline::paper_slew;
-use model_core::LawKind;
 use std::{env, fs, path::PathBuf};
-
-include!("src/choice.rs");
 
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
@@ -17,13 +14,13 @@ fn main() {
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=../memory.x");
     println!("cargo:rerun-if-changed=build.rs");
-    println!("cargo:rerun-if-changed=src/choice.rs");
 
-    let shaper = schedule_shaper(rows_for(CONTROLLER), CONTROLLER, PAYLOAD_KG);
+    let (law, payload_kg) = (DRIVE.law, DRIVE.payload_kg);
+    let shaper = schedule_shaper(rows_for(law), law, payload_kg);
     let knots = |from, to| {
         shaped_quintic_knots(from, to, paper_slew::TIME_S, &shaper, Timing::Stretch).unwrap_or_else(
             |e| {
-                eprintln!("error: the start button's move for {CONTROLLER}: {e}");
+                eprintln!("error: the start button's move for {law}: {e}");
                 std::process::exit(1)
             },
         )

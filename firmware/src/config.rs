@@ -7,7 +7,7 @@
 //! (`rows_for`), scheduled on the payload. Nothing of the model is computed here.
 
 use model_core::commands::{CommandedController, Commander, SetupError};
-use model_core::gains::{rows_for, schedule_shaper, GainRow, PLANT};
+use model_core::gains::{rows_for, schedule_shaper, GainRow, DRIVE, PLANT};
 use model_core::shaper::shaped_quintic;
 use model_core::{
     ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind, ParamError, ShaperError,
@@ -18,7 +18,10 @@ use model_core::{
 /// use six). One capacity for both kinds of move keeps one controller type in the binary,
 /// which the instruction counts showed to matter (two made LLVM inline less in the tick).
 pub const MOVE_KNOTS: usize = model_core::planner::SHAPED_PLAN_KNOTS;
-include!("choice.rs");
+/// The payload this drive starts with, kg (the table's `[drive]`).
+pub const PAYLOAD_KG: f32 = DRIVE.payload_kg;
+/// The control law the drive runs (the table's `[drive]`).
+pub const CONTROLLER: LawKind = DRIVE.law;
 include!(concat!(env!("OUT_DIR"), "/button_moves.rs"));
 /// The table's rows of [`CONTROLLER`]: the only rows the board links (a drive cannot change
 /// its law).
@@ -45,8 +48,9 @@ pub const PWM_HZ: u32 = 20_000;
 /// the board (the PIL drive's fake PWM uses it too).
 pub const PWM_PERIOD_COUNTS: u16 = (SYSCLK_HZ / PWM_HZ) as u16;
 /// Torque at 100 % PWM duty, N m (the amplifier's current scale times the motor's torque
-/// constant): the controller's torque limit, so saturation never clips twice.
-pub const FULL_SCALE_TORQUE_NM: f32 = model_core::DRIVE_TORQUE_LIMIT_NM;
+/// constant; the table's `[drive]`): at least the controller's torque limit, so saturation
+/// never clips twice (the table's build checks it).
+pub const FULL_SCALE_TORQUE_NM: f32 = DRIVE.torque_full_scale_nm;
 
 // The period fits the timer's 16 bits and the loop runs at model-core's rate.
 const _: () = assert!(SYSCLK_HZ / PWM_HZ <= u16::MAX as u32);

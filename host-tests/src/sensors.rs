@@ -27,8 +27,9 @@ pub struct SensorConfig {
 impl Default for SensorConfig {
     fn default() -> Self {
         Self {
-            encoder: EncoderSpec::DEFAULT,
-            adc: AdcSpec::DEFAULT,
+            // The compiled drive's instruments (the gain table's `[drive]`).
+            encoder: model_core::gains::DRIVE.encoder,
+            adc: model_core::gains::DRIVE.adc,
             adc_offset_code: 1234,
             strain_noise_std: 0.5e-6,
             seed: 1,

@@ -178,8 +178,9 @@ impl Default for ControllerSettings {
     fn default() -> Self {
         Self {
             ts_s: crate::DEFAULT_TS_S,
-            encoder: EncoderSpec::DEFAULT,
-            adc: AdcSpec::DEFAULT,
+            // The compiled drive's instruments (the gain table's `[drive]`).
+            encoder: crate::gains::DRIVE.encoder,
+            adc: crate::gains::DRIVE.adc,
             theta_home_rad: -core::f32::consts::FRAC_PI_2,
             velocity_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,
             strain_rate_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,

@@ -20,6 +20,24 @@ pub struct GainRow {
     pub shaper: Shaper,
 }
 
+/// The drive a gain table configures (its `[drive]`): the law it runs, the payload it starts
+/// with, and how it reads its instruments. [`DRIVE`] is the compiled table's;
+/// [`ControllerSettings::default`](crate::ControllerSettings) reads its instruments.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveConfig {
+    /// The law the drive runs.
+    pub law: LawKind,
+    /// The payload it starts with, kg.
+    pub payload_kg: f32,
+    /// The hub encoder.
+    pub encoder: crate::measure::EncoderSpec,
+    /// The root strain converter.
+    pub adc: crate::measure::AdcSpec,
+    /// Torque at 100 % PWM duty, N m (at least the plant's torque limit, so saturation never
+    /// clips twice).
+    pub torque_full_scale_nm: f32,
+}
+
 include!(concat!(env!("OUT_DIR"), "/gain_table.rs"));
 
 /// The gains for law `kind` at `payload_kg`, from `table`; `None` if the table has no row for

@@ -447,6 +447,11 @@ fn write_row(
     } else {
         gain_table::Table {
             plant: plant.clone(),
+            // A new table's drive runs the law designed first, at no payload.
+            drive: gain_table::DriveSpec {
+                law: a.controller,
+                ..gain_table::DriveSpec::default()
+            },
             rows: Vec::new(),
         }
     };

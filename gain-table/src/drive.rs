@@ -1,0 +1,148 @@
+//! The table's `[drive]`: what the drive built from the table runs and how it reads its
+//! instruments. Optional; each key defaults to the shipped drive's.
+//!
+//! ```toml
+//! [drive]
+//! law = "smc"                     # the law the drive runs (the table must have its rows)
+//! payload_kg = 0.0                # the payload it starts with (within the plant's range)
+//! encoder_counts_per_rev = 16384  # after quadrature decoding
+//! encoder_counter_bits = 16       # the hardware counter's width
+//! adc_bits = 24                   # the strain converter's resolution
+//! strain_full_scale = 0.005       # strain at the converter's positive full scale
+//! torque_full_scale_nm = 10.0     # torque at 100 % PWM duty
+//! ```
+//!
+//! The sign conventions are fixed: the encoder counts up, and the amplifier's direction pin
+//! is high, for positive hub angle and torque; wire the rig to them.
+
+use crate::Row;
+use beam_kinds::LawKind;
+use serde::{Deserialize, Serialize};
+
+/// The `[drive]` table.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DriveSpec {
+    /// The law the drive runs.
+    pub law: LawKind,
+    /// The payload it starts with, kg.
+    pub payload_kg: f64,
+    /// Encoder counts per revolution after quadrature decoding.
+    pub encoder_counts_per_rev: u32,
+    /// Width of the hardware counter, bits (2 to 32).
+    pub encoder_counter_bits: u8,
+    /// The strain converter's resolution, bits (2 to 32).
+    pub adc_bits: u8,
+    /// Strain at the converter's positive full scale (the gauge factor, the bridge and the
+    /// amplifier's gain together).
+    pub strain_full_scale: f64,
+    /// Torque at 100 % PWM duty, N m (the amplifier's current scale times the motor's torque
+    /// constant).
+    pub torque_full_scale_nm: f64,
+}
+
+impl Default for DriveSpec {
+    fn default() -> Self {
+        Self {
+            law: LawKind::Smc,
+            payload_kg: 0.0,
+            encoder_counts_per_rev: 16384,
+            encoder_counter_bits: 16,
+            adc_bits: 24,
+            strain_full_scale: 5000e-6,
+            torque_full_scale_nm: 10.0,
+        }
+    }
+}
+
+/// A `[drive]` error: the field and why.
+pub(crate) type DriveError = (&'static str, String);
+
+impl DriveSpec {
+    pub(crate) fn from_value(v: &toml::Value) -> Result<Self, DriveError> {
+        v.clone()
+            .try_into()
+            .map_err(|e: toml::de::Error| ("drive", format!("[drive]: {}", e.message().trim())))
+    }
+
+    /// Checks the values, and that the table can serve them: rows of the law (PD has its
+    /// baseline without), a payload within the rows' range, and an amplifier that reaches
+    /// the plant's torque limit.
+    pub(crate) fn check(&self, rows: &[Row], torque_limit_nm: f64) -> Result<(), DriveError> {
+        let why = |field, m: String| Err((field, format!("[drive]: {m}")));
+        if self.law != LawKind::Pd && !rows.iter().any(|r| r.gains.kind() == self.law) {
+            return why(
+                "law",
+                format!("{}: the table has no {} row", self.law, self.law),
+            );
+        }
+        let heaviest = rows
+            .iter()
+            .map(|r| r.payload_kg as f32 as f64)
+            .fold(0.0, f64::max);
+        if !(self.payload_kg >= 0.0 && self.payload_kg <= heaviest) {
+            return why(
+                "payload_kg",
+                format!(
+                    "{} kg is outside the rows' payloads, 0 to {heaviest} kg",
+                    self.payload_kg
+                ),
+            );
+        }
+        if self.encoder_counts_per_rev == 0 {
+            return why("encoder_counts_per_rev", "must be > 0".into());
+        }
+        for (field, bits) in [
+            ("encoder_counter_bits", self.encoder_counter_bits),
+            ("adc_bits", self.adc_bits),
+        ] {
+            if !(2..=32).contains(&bits) {
+                return why(field, format!("{bits} is not 2 to 32"));
+            }
+        }
+        if !(self.strain_full_scale.is_finite() && self.strain_full_scale > 0.0) {
+            return why(
+                "strain_full_scale",
+                format!("{} must be > 0", self.strain_full_scale),
+            );
+        }
+        if !(self.torque_full_scale_nm.is_finite() && self.torque_full_scale_nm >= torque_limit_nm)
+        {
+            return why(
+                "torque_full_scale_nm",
+                format!(
+                    "{} N m: the amplifier must reach the plant's torque limit, {torque_limit_nm} N m",
+                    self.torque_full_scale_nm
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// The `[drive]` table's text.
+    pub fn render(&self) -> String {
+        format!(
+            "[drive]\n{}",
+            toml::to_string(self).unwrap_or_else(|e| format!("# {e}\n"))
+        )
+    }
+
+    /// Rust source for `DRIVE: crate::gains::DriveConfig`.
+    pub(crate) fn generate(&self) -> String {
+        format!(
+            "/// The drive the table configures (its `[drive]`).\n\
+             pub const DRIVE: crate::gains::DriveConfig = crate::gains::DriveConfig {{\n    \
+             law: ::beam_kinds::LawKind::{:?},\n    payload_kg: {:?},\n    \
+             encoder: crate::measure::EncoderSpec {{ counts_per_rev: {}, counter_bits: {} }},\n    \
+             adc: crate::measure::AdcSpec {{ bits: {}, full_scale_strain: {:?} }},\n    \
+             torque_full_scale_nm: {:?},\n}};\n",
+            self.law,
+            self.payload_kg as f32,
+            self.encoder_counts_per_rev,
+            self.encoder_counter_bits,
+            self.adc_bits,
+            self.strain_full_scale,
+            self.torque_full_scale_nm as f32
+        )
+    }
+}
