@@ -677,8 +677,10 @@ fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
     // A table without the controller's rows is refused, naming the file.
     let shipped_text = std::fs::read_to_string(shipped).unwrap();
     let mut parts = shipped_text.split("\n[[row]]");
-    // The header and the [plant], then only the pd-ff rows.
-    let head = parts.next().unwrap().to_string();
+    // The header and the [plant] (not the shipped [drive], which runs smc), then only the
+    // pd-ff rows.
+    let head = parts.next().unwrap();
+    let head = head.split("\n[drive]").next().unwrap().to_string();
     let only_pd_ff: String = head
         + &parts
             .filter(|r| r.contains("controller = \"pd-ff\""))

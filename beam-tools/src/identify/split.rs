@@ -235,9 +235,9 @@ pub struct SplitOptions {
 /// Fits one parameter set to all `exps` from `guess` with an `N`-mode model. Returns the
 /// beam, the rig's sensors and the report.
 ///
-/// Step 1 is the beam on the prescribed hub ([`fit_beam`]), step 2 the torque balance,
-/// iterated on the density when the torque is the reference ([`solve_balance`]); then come
-/// the balance's spread ([`balance_spread`]), the intervals and trade-offs of both steps,
+/// Step 1 is the beam on the prescribed hub (`fit_beam`), step 2 the torque balance,
+/// iterated on the density when the torque is the reference (`solve_balance`); then come
+/// the balance's spread (`balance_spread`), the intervals and trade-offs of both steps,
 /// and the check figures.
 pub fn calibrate_split<const N: usize>(
     exps: &[Experiment],
