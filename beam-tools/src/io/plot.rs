@@ -46,9 +46,10 @@ macro_rules! render {
     }};
 }
 
-/// Draws `run` into `path` (`.png` or `.svg`), titled `title`.
+/// Draws `run` into `path` (`.png` or `.svg`), titled `title`: the paper's figures 2-5
+/// (hub angle with its reference, hub velocity, root and mid-span strain) and the torque.
 pub fn plot(run: &SimResult, title: &str, path: &Path) -> Result<(), PlotError> {
-    render!(path, (1200, 900), draw(run, title))
+    render!(path, (1200, 1300), draw(run, title))
 }
 
 /// A drive's recorded telemetry (`beam drive --record`): hub angle with its reference,
@@ -146,7 +147,7 @@ where
     let s = &run.samples;
     let col =
         |f: fn(&host_tests::sim::Sample) -> f64| s.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
-    let figures: [Figure; 4] = [
+    let figures: [Figure; 5] = [
         (
             "Hub angle",
             "deg",
@@ -170,8 +171,9 @@ where
             "microstrain",
             vec![("mid", col(|x| x.mid_strain * 1e6), BLUE)],
         ),
+        ("Torque", "N m", vec![("torque", col(|x| x.torque), BLUE)]),
     ];
-    draw_figures(title, figures.into(), (2, 2), root)
+    draw_figures(title, figures.into(), (3, 2), root)
 }
 
 /// The panels of `figures` on a `grid` (rows, columns), under `title`.
