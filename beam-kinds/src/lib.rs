@@ -80,8 +80,9 @@ macro_rules! named_enum {
 }
 
 named_enum! {
-    /// Which control law runs. Each kind has its own gain type in model-core's `law` module,
-    /// its own search bounds in the optimiser and its own row shape in `gains.toml`.
+    /// Which control law runs. Each kind's gains (names, units, sign rules, the optimiser's
+    /// default ranges) are defined once, in [`LawKind::gains`]; its gain type and the torque
+    /// it computes are in model-core's `law` module.
     pub enum LawKind ("control law") {
         /// The PD baseline: `tau = Kp e + Kd e'`.
         Pd = "pd", "PD baseline";
@@ -161,6 +162,148 @@ impl Switching {
     }
 }
 
+/// How a gain may be signed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sign {
+    /// Strictly positive.
+    Positive,
+    /// Zero or positive.
+    NonNegative,
+    /// Any finite value.
+    Any,
+}
+
+/// Where the optimiser searches a gain by default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Search {
+    /// Log-uniformly between the two bounds.
+    Log(f64, f64),
+    /// Linearly over the strain blends the plant can take (`1 - c gamma` kept well above
+    /// its limit): the bounds come from the model.
+    Blend,
+}
+
+/// One gain of a law: its name (in `gains.toml`, on the command line, in JSON), its unit,
+/// its sign rule and where the optimiser searches it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GainSpec {
+    /// The gain's name.
+    pub name: &'static str,
+    /// Its unit.
+    pub unit: &'static str,
+    /// Its sign rule.
+    pub sign: Sign,
+    /// The optimiser's default range.
+    pub search: Search,
+}
+
+/// Why a gain's value is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GainRule {
+    /// NaN or infinite.
+    NonFinite,
+    /// Must be > 0.
+    NotPositive,
+    /// Must be >= 0.
+    Negative,
+}
+
+impl GainSpec {
+    /// Checks `value` against the sign rule (and that it is finite).
+    pub fn check(&self, value: f64) -> Result<(), GainRule> {
+        self.sign.check(value)
+    }
+}
+
+impl Sign {
+    /// Checks `value` against the rule (and that it is finite).
+    pub fn check(self, value: f64) -> Result<(), GainRule> {
+        if !value.is_finite() {
+            return Err(GainRule::NonFinite);
+        }
+        match self {
+            Sign::Positive if !(value > 0.0) => Err(GainRule::NotPositive),
+            Sign::NonNegative if value < 0.0 => Err(GainRule::Negative),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Each law's gains, defined once: name, unit, sign rule and the optimiser's default range,
+/// in the optimiser's search order. The macro lays them out as parallel lists, so the drive,
+/// which checks signs, links the names and the rules but not the units or the ranges.
+macro_rules! law_gains {
+    ($( [$($kind:ident),+] => [$( ($name:literal, $unit:literal, $sign:ident, $search:expr) ),+] );+ $(;)?) => {
+        impl LawKind {
+            /// The law's gain names, in the optimiser's search order.
+            pub const fn gain_names(self) -> &'static [&'static str] {
+                match self { $( $(LawKind::$kind)|+ => &[$($name),+], )+ }
+            }
+
+            /// The sign rule of each gain, in [`LawKind::gain_names`]' order.
+            pub const fn gain_signs(self) -> &'static [Sign] {
+                match self { $( $(LawKind::$kind)|+ => &[$(Sign::$sign),+], )+ }
+            }
+
+            /// The unit of each gain, in [`LawKind::gain_names`]' order.
+            pub const fn gain_units(self) -> &'static [&'static str] {
+                match self { $( $(LawKind::$kind)|+ => &[$($unit),+], )+ }
+            }
+
+            /// The optimiser's default range of each gain, in [`LawKind::gain_names`]' order.
+            pub const fn gain_search(self) -> &'static [Search] {
+                match self { $( $(LawKind::$kind)|+ => &[$($search),+], )+ }
+            }
+        }
+    };
+}
+
+law_gains! {
+    [Pd, PdFf] => [
+        ("kp", "N m/rad", NonNegative, Search::Log(0.5, 200.0)),
+        ("kd", "N m s/rad", NonNegative, Search::Log(0.01, 20.0))
+    ];
+    [Smc] => [
+        ("w", "1/s", Positive, Search::Log(1.0, 200.0)),
+        ("a", "rad/s^2", NonNegative, Search::Log(10.0, 5000.0)),
+        ("beta", "s/rad", Positive, Search::Log(0.003, 5.0))
+    ];
+    [SmcStrain] => [
+        ("w", "1/s", Positive, Search::Log(1.0, 200.0)),
+        ("a", "rad/s^2", NonNegative, Search::Log(10.0, 5000.0)),
+        ("beta", "s/rad", Positive, Search::Log(0.003, 5.0)),
+        ("c", "rad per unit strain", Any, Search::Blend)
+    ];
+    [SmcI] => [
+        ("w", "1/s", Positive, Search::Log(1.0, 200.0)),
+        ("wi", "1/s^2", NonNegative, Search::Log(0.1, 10000.0)),
+        ("a", "rad/s^2", NonNegative, Search::Log(10.0, 5000.0)),
+        ("beta", "s/rad", Positive, Search::Log(0.003, 5.0)),
+        ("c", "rad per unit strain", Any, Search::Blend)
+    ];
+}
+
+impl LawKind {
+    /// The law's gains, in the optimiser's search order: the one definition of their names,
+    /// units, sign rules and default search ranges, which the gain table's validation, the
+    /// law's own validation in model-core and the optimiser read.
+    pub fn gains(self) -> impl Iterator<Item = GainSpec> {
+        let (names, units) = (self.gain_names(), self.gain_units());
+        let (signs, search) = (self.gain_signs(), self.gain_search());
+        (0..names.len()).map(move |i| GainSpec {
+            name: names[i],
+            unit: units[i],
+            sign: signs[i],
+            search: search[i],
+        })
+    }
+
+    /// The spec of the gain `name`, if the law has it.
+    pub fn gain(self, name: &str) -> Option<GainSpec> {
+        self.gains().find(|g| g.name == name)
+    }
+}
+
 /// A name that is none of a kind's variants.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct UnknownName {
@@ -185,6 +328,34 @@ impl core::error::Error for UnknownName {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_law_has_one_spec_per_gain_with_distinct_names_and_sane_ranges() {
+        for &k in LawKind::ALL {
+            let n = k.gain_names().len();
+            assert!(n > 0, "{k}");
+            assert_eq!(k.gain_signs().len(), n, "{k}");
+            assert_eq!(k.gain_units().len(), n, "{k}");
+            assert_eq!(k.gain_search().len(), n, "{k}");
+            for (i, g) in k.gains().enumerate() {
+                assert!(
+                    k.gain_names()[..i].iter().all(|m| *m != g.name),
+                    "{k}: {}",
+                    g.name
+                );
+                assert!(!g.unit.is_empty());
+                if let Search::Log(lo, hi) = g.search {
+                    assert!(0.0 < lo && lo < hi, "{k}: {}", g.name);
+                    // The default range obeys the sign rule.
+                    assert_eq!(g.check(lo), Ok(()));
+                }
+            }
+        }
+        assert_eq!(Sign::Positive.check(0.0), Err(GainRule::NotPositive));
+        assert_eq!(Sign::NonNegative.check(0.0), Ok(()));
+        assert_eq!(Sign::NonNegative.check(-1e-9), Err(GainRule::Negative));
+        assert_eq!(Sign::Any.check(f64::NAN), Err(GainRule::NonFinite));
+    }
 
     #[test]
     fn every_name_parses_back_to_its_variant() {

@@ -7,6 +7,7 @@
 //! Rows are grouped by controller; within a controller they are sorted by payload with no
 //! duplicates, so the controller can interpolate between neighbours at run time.
 
+use beam_kinds::GainRule;
 pub use beam_kinds::{LawKind, Preset, ShaperKind, Switching};
 use beam_model::plant::PlantPoint;
 use serde::{Deserialize, Serialize};
@@ -496,39 +497,24 @@ fn validate_row(r: &Row) -> Result<(), (&'static str, String)> {
             ));
         }
     }
-    let positive = |field, v: f64| {
-        if v > 0.0 {
-            Ok(())
-        } else {
-            Err((field, format!("{v} must be > 0")))
-        }
-    };
-    let non_negative = |field, v: f64| {
-        if v >= 0.0 {
-            Ok(())
-        } else {
-            Err((field, format!("{v} must be >= 0")))
-        }
-    };
-    let smc = |w, a, beta| {
-        positive("w", w)?;
-        non_negative("a", a)?;
-        positive("beta", beta)
-    };
-    match &r.gains {
-        Gains::Pd(g) | Gains::PdFf(g) => {
-            non_negative("kp", g.kp)?;
-            non_negative("kd", g.kd)
-        }
-        Gains::SmcI(g) => {
-            smc(g.w, g.a, g.beta)?;
-            non_negative("wi", g.wi)
-        }
-        Gains::Smc(g) => smc(g.w, g.a, g.beta),
-        // The blend's own limit (1 - c gamma >= 0.2) needs the model: model-core checks it
-        // when the law is built.
-        Gains::SmcStrain(g) => smc(g.w, g.a, g.beta),
+    // Each gain by its law's sign rule (beam-kinds' `LawKind::gains`, which the law's own
+    // validation in model-core reads too). The blend's own limit (1 - c gamma >= 0.2)
+    // needs the plant: `check_against_plant`.
+    let kind = r.gains.kind();
+    for (field, v) in r.gains.numbers() {
+        let Some(spec) = kind.gain(field) else {
+            continue;
+        };
+        spec.check(v).map_err(|rule| {
+            let why = match rule {
+                GainRule::NonFinite => "is not finite",
+                GainRule::NotPositive => "must be > 0",
+                GainRule::Negative => "must be >= 0",
+            };
+            (field, format!("{v} {why}"))
+        })?;
     }
+    Ok(())
 }
 
 /// Reads and validates the table at `path`.
@@ -823,6 +809,31 @@ cost_j = 2.0
                 .to_string(),
             "g.toml: the table has no [[row]]"
         );
+    }
+
+    #[test]
+    fn every_gain_a_row_holds_is_one_of_its_laws_specs() {
+        // Every law's row, from the shipped table: each number that is a gain has the
+        // law's spec, and every spec is among the row's numbers.
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml"),
+        )
+        .unwrap();
+        let rows = parse(&text, "gains.toml").unwrap().rows;
+        for kind in [
+            LawKind::Smc,
+            LawKind::SmcStrain,
+            LawKind::PdFf,
+            LawKind::SmcI,
+        ] {
+            let row = rows.iter().find(|r| r.gains.kind() == kind).unwrap();
+            let names: Vec<&str> = row.gains.numbers().iter().map(|n| n.0).collect();
+            let mut sorted = names.clone();
+            sorted.sort_unstable();
+            let mut specs: Vec<&str> = kind.gain_names().to_vec();
+            specs.sort_unstable();
+            assert_eq!(sorted, specs, "{kind}");
+        }
     }
 
     #[test]

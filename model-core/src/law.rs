@@ -11,8 +11,9 @@ use crate::modal::ModalModel;
 use crate::modal::MAX_MODES;
 use crate::plant::PlantPoint;
 use crate::spline::RefPoint;
+use beam_kinds::GainRule;
 
-pub use beam_kinds::{LawKind, Switching};
+pub use beam_kinds::{GainSpec, LawKind, Search, Sign, Switching};
 
 /// PD gains: `tau = Kp (theta_r - theta) + Kd (theta_r' - theta')`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,7 +124,47 @@ impl Law {
     pub const fn name(&self) -> &'static str {
         self.kind().name()
     }
+
+    /// The gains' values in the order of their specs, [`LawKind::gains`] (the first
+    /// `gains().len()` entries; the rest zero).
+    pub const fn values(&self) -> [f32; MAX_GAINS] {
+        match *self {
+            Law::Pd(PdGains { kp, kd }) | Law::PdFf(PdFfGains { kp, kd }) => {
+                [kp, kd, 0.0, 0.0, 0.0]
+            }
+            Law::Smc(SmcGains { w, a, beta, .. }) => [w, a, beta, 0.0, 0.0],
+            Law::SmcStrain(StrainSmcGains {
+                smc: SmcGains { w, a, beta, .. },
+                c,
+                ..
+            }) => [w, a, beta, c, 0.0],
+            Law::SmcI(SmcIGains {
+                w, wi, a, beta, c, ..
+            }) => [w, wi, a, beta, c],
+        }
+    }
+
+    /// Checks every gain against its spec's sign rule ([`LawKind::gains`], the rule the gain
+    /// table's build applies too).
+    pub fn check(&self) -> Result<(), ParamError> {
+        let (kind, values) = (self.kind(), self.values());
+        let rules = kind.gain_names().iter().zip(kind.gain_signs());
+        for ((&field, sign), &v) in rules.zip(&values) {
+            sign.check(v as f64).map_err(|rule| ParamError {
+                field,
+                kind: match rule {
+                    GainRule::NonFinite => ParamErrorKind::NonFinite,
+                    GainRule::NotPositive => ParamErrorKind::NotPositive,
+                    GainRule::Negative => ParamErrorKind::Negative,
+                },
+            })?;
+        }
+        Ok(())
+    }
 }
+
+/// Most gains a law has.
+pub const MAX_GAINS: usize = 5;
 
 /// The measured state the laws use, SI.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -197,16 +238,6 @@ impl ControlLaw {
     /// [`PlantPoint`] (the drive's compiled plant at its payload) or a [`ModalModel`].
     pub fn try_build(law: Law, plant: impl Into<PlantPoint>) -> Result<Self, ParamError> {
         let model = &plant.into();
-        fn bad<T>(field: &'static str, kind: ParamErrorKind) -> Result<T, ParamError> {
-            Err(ParamError { field, kind })
-        }
-        let finite = |field: &'static str, v: f32| {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                bad(field, ParamErrorKind::NonFinite)
-            }
-        };
         let jeff = model.jeff;
         let plain = Self {
             law,
@@ -215,57 +246,12 @@ impl ControlLaw {
             integral_max: 0.0,
             model: ModelTerms::default(),
         };
-        let pd = |kp: f32, kd: f32| {
-            finite("kp", kp)?;
-            finite("kd", kd)?;
-            if kp < 0.0 {
-                return bad("kp", ParamErrorKind::Negative);
-            }
-            if kd < 0.0 {
-                return bad("kd", ParamErrorKind::Negative);
-            }
-            Ok(())
-        };
-        let smc = |w: f32, a: f32, beta: f32| {
-            for (field, v) in [("w", w), ("a", a), ("beta", beta)] {
-                finite(field, v)?;
-            }
-            if !(w > 0.0) {
-                return bad("w", ParamErrorKind::NotPositive);
-            }
-            if a < 0.0 {
-                return bad("a", ParamErrorKind::Negative);
-            }
-            if !(beta > 0.0) {
-                return bad("beta", ParamErrorKind::NotPositive);
-            }
-            Ok(())
-        };
+        // Every gain's sign, by the law's spec; then what each law needs of the plant.
+        law.check()?;
         match law {
-            Law::Pd(g) => {
-                pd(g.kp, g.kd)?;
-                Ok(plain)
-            }
-            Law::PdFf(g) => {
-                pd(g.kp, g.kd)?;
-                Ok(plain)
-            }
-            Law::Smc(g) => {
-                smc(g.w, g.a, g.beta)?;
-                Ok(plain)
-            }
-            Law::SmcStrain(sg) => {
-                smc(sg.smc.w, sg.smc.a, sg.smc.beta)?;
-                finite("c", sg.c)?;
-                Self::strain_law(law, sg, model)
-            }
+            Law::Pd(_) | Law::PdFf(_) | Law::Smc(_) => Ok(plain),
+            Law::SmcStrain(sg) => Self::strain_law(law, sg, model),
             Law::SmcI(g) => {
-                smc(g.w, g.a, g.beta)?;
-                finite("wi", g.wi)?;
-                finite("c", g.c)?;
-                if g.wi < 0.0 {
-                    return bad("wi", ParamErrorKind::Negative);
-                }
                 // The blended output's input gain, as for smc-strain (Jeff when c = 0).
                 let jc = Self::blended_inertia(g.c as f64, model)?;
                 // Jc A beta Wi |z| <= the drive's limit (infinite without integral action).
@@ -390,6 +376,50 @@ impl ControlLaw {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_laws_values_follow_its_spec_order() {
+        // `values` lists each law's gains in `LawKind::gains` order: set each gain to its
+        // index and read it back by the spec's name.
+        let laws = [
+            Law::Pd(PdGains { kp: 1.0, kd: 2.0 }),
+            Law::PdFf(PdFfGains { kp: 1.0, kd: 2.0 }),
+            Law::Smc(SmcGains {
+                w: 1.0,
+                a: 2.0,
+                beta: 3.0,
+                switching: Switching::Tanh,
+            }),
+            Law::SmcStrain(StrainSmcGains {
+                smc: SmcGains {
+                    w: 1.0,
+                    a: 2.0,
+                    beta: 3.0,
+                    switching: Switching::Tanh,
+                },
+                c: 4.0,
+                model_terms: false,
+            }),
+            Law::SmcI(SmcIGains {
+                w: 1.0,
+                wi: 2.0,
+                a: 3.0,
+                beta: 4.0,
+                c: 5.0,
+                switching: Switching::Tanh,
+            }),
+        ];
+        for law in laws {
+            let names = law.kind().gain_names();
+            let values = law.values();
+            for (i, name) in names.iter().enumerate() {
+                assert_eq!(values[i], (i + 1) as f32, "{} {name}", law.name());
+            }
+            assert!(values[names.len()..].iter().all(|v| *v == 0.0));
+        }
+        // Every kind is covered above.
+        assert_eq!(laws.len(), LawKind::ALL.len());
+    }
     use crate::beam::{Beam, BeamParams};
     use crate::modal::ModalModel;
 

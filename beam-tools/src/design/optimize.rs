@@ -76,39 +76,24 @@ fn blend_bounds<const N: usize>(model: &ModalModel<N>) -> (f64, f64) {
     (lo.max(-2000.0), hi.min(2000.0))
 }
 
-/// Default search bounds for `kind` on `model` (c is kept where the blended output keeps
-/// its control direction, `1 - c gamma >= 0.25`).
+/// Default search bounds for `kind` on `model`, from the law's gain specs
+/// ([`LawKind::gains`]): log-uniform within their ranges, and c where the blended output
+/// keeps its control direction, `1 - c gamma >= 0.25`.
 pub fn default_params<const N: usize>(kind: LawKind, model: &ModalModel<N>) -> Vec<Param> {
-    let p = |name, lo, hi, log| Param { name, lo, hi, log };
-    match kind {
-        LawKind::Pd | LawKind::PdFf => {
-            vec![p("kp", 0.5, 200.0, true), p("kd", 0.01, 20.0, true)]
-        }
-        LawKind::SmcI => vec![
-            p("w", 1.0, 200.0, true),
-            p("wi", 0.1, 10000.0, true),
-            p("a", 10.0, 5000.0, true),
-            p("beta", 0.003, 5.0, true),
-            {
-                let (lo, hi) = blend_bounds(model);
-                p("c", lo, hi, false)
-            },
-        ],
-        LawKind::Smc => vec![
-            p("w", 1.0, 200.0, true),
-            p("a", 10.0, 5000.0, true),
-            p("beta", 0.003, 5.0, true),
-        ],
-        LawKind::SmcStrain => {
-            let (lo, hi) = blend_bounds(model);
-            vec![
-                p("w", 1.0, 200.0, true),
-                p("a", 10.0, 5000.0, true),
-                p("beta", 0.003, 5.0, true),
-                p("c", lo, hi, false),
-            ]
-        }
-    }
+    kind.gains()
+        .map(|g| {
+            let ((lo, hi), log) = match g.search {
+                model_core::law::Search::Log(lo, hi) => ((lo, hi), true),
+                model_core::law::Search::Blend => (blend_bounds(model), false),
+            };
+            Param {
+                name: g.name,
+                lo,
+                hi,
+                log,
+            }
+        })
+        .collect()
 }
 
 /// The hold test: `nm` on the hub from `at_s` to `until_s` (s after the move starts, the hub
