@@ -434,7 +434,20 @@ fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)
         }
     }
     let message = |e: toml::de::Error| (None, e.message().trim().to_string());
-    let c: Common = toml::Value::Table(common).try_into().map_err(message)?;
+    let c: Common = toml::Value::Table(common.clone())
+        .try_into()
+        .map_err(message)?;
+    // A shaper's settings without a shaper would be dropped when the table is written back:
+    // refused instead (a fuzzed table found it).
+    if c.shaper == ShaperKind::None {
+        const SETTINGS: [&str; 3] = ["shaper_hz", "shaper_damping", "shaper_tolerance"];
+        if let Some(key) = SETTINGS.into_iter().find(|k| common.contains_key(*k)) {
+            return Err((
+                Some(key),
+                "is given without a shaper (`shaper = \"zv\"`, `\"zvd\"` or `\"ei\"`)".into(),
+            ));
+        }
+    }
     let gains = Gains::from_table(kind, table)
         .map_err(|e| (None, format!("{kind}: {}", e.message().trim())))?;
     Ok(Row {
@@ -880,6 +893,25 @@ cost_j = 2.0
             source.contains("counts_per_rev: 4000, counter_bits: 16"),
             "{source}"
         );
+    }
+
+    #[test]
+    fn a_shapers_settings_without_a_shaper_are_refused_not_dropped() {
+        // Found by fuzzing: the row parsed, and the setting vanished when the table was
+        // written back.
+        let e = bad("w = 12.0", "w = 12.0\nshaper_damping = 0.07");
+        assert_eq!((e.row, e.field), (Some(2), Some("shaper_damping")));
+        let e = bad("w = 12.0", "w = 12.0\nshaper = \"none\"\nshaper_hz = 4.0");
+        assert_eq!(e.field, Some("shaper_hz"));
+        let zvd =
+            |w: &str| format!("{w}\nshaper = \"zvd\"\nshaper_hz = 4.0\nshaper_damping = 0.05");
+        let text = GOOD.replacen("w = 10.0", &zvd("w = 10.0"), 1).replacen(
+            "w = 12.0",
+            &zvd("w = 12.0"),
+            1,
+        );
+        let t = parse(&text, "g").unwrap();
+        assert_eq!(parse(&render(&t), "g").unwrap(), t);
     }
 
     #[test]
