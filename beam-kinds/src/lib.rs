@@ -96,6 +96,10 @@ named_enum! {
         /// Integral sliding mode with rigid-body feedforward: continuous, and it rejects a
         /// constant load up to the switching gain times Jeff.
         SmcI = "smc-i", "integral sliding mode with rigid-body feedforward";
+        /// LQR with integral action on a steady-state Kalman observer of the hub and the
+        /// flexible modes (encoder, root strain and torque in), with rigid-body feedforward:
+        /// the torque sees the modes, so the loop damps the beam.
+        Lqg = "lqg", "LQR + integral on a Kalman modal observer, with feedforward";
     }
 }
 
@@ -281,6 +285,13 @@ law_gains! {
         ("beta", "s/rad", Positive, Search::Log(0.003, 5.0)),
         ("c", "rad per unit strain", Any, Search::Blend)
     ];
+    [Lqg] => [
+        ("kp", "N m/rad", Positive, Search::Log(1.0, 2000.0)),
+        ("kd", "N m s/rad", Positive, Search::Log(0.01, 50.0)),
+        ("ki", "N m/(rad s)", NonNegative, Search::Log(1.0, 20000.0)),
+        ("kq", "(N m)^2/J", NonNegative, Search::Log(1.0, 1e7)),
+        ("sigma", "N m", Positive, Search::Log(0.01, 10.0))
+    ];
 }
 
 impl LawKind {
@@ -382,7 +393,7 @@ mod tests {
         core::fmt::write(&mut w, format_args!("{e}")).unwrap();
         assert_eq!(
             core::str::from_utf8(&w.0[..w.1]).unwrap(),
-            "unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i"
+            "unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i, lqg"
         );
         assert!(
             "Smc".parse::<LawKind>().is_err(),

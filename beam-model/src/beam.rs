@@ -238,6 +238,10 @@ pub enum ParamErrorKind {
     Negative,
     /// Outside its documented range.
     OutOfRange,
+    /// Needs the whole modal model to be designed (the LQG law built on a plant point).
+    NeedsModel,
+    /// No stable design exists for it (a Riccati equation did not converge).
+    NoDesign,
 }
 
 /// A rejected value: which field and why. The field is named as in the structure being
@@ -259,6 +263,8 @@ impl fmt::Display for ParamError {
             ParamErrorKind::NotPositive => "must be > 0",
             ParamErrorKind::Negative => "must be >= 0",
             ParamErrorKind::OutOfRange => "is out of range",
+            ParamErrorKind::NeedsModel => "needs a modal model to design on",
+            ParamErrorKind::NoDesign => "has no stable design",
         };
         write!(f, "`{}` {}", self.field, why)
     }

@@ -11,11 +11,14 @@
 //! - [`plant`]: the model reduced to what the control laws and the planner read, at one
 //!   payload ([`plant::PlantPoint`]) and over a payload grid ([`plant::Plant`]).
 //! - [`linalg`]: the small dense linear algebra the model needs.
+//! - [`lqg`]: the sampled linear model, a steady-state Kalman filter (the modal state
+//!   observer) and LQR state feedback with integral action.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
 pub mod beam;
 pub mod linalg;
+pub mod lqg;
 pub mod modal;
 pub mod plant;
 

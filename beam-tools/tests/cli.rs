@@ -71,7 +71,12 @@ fn simulate_json_reports_metrics_or_a_breakdown() {
         "max_mid_strain_ue_after_move",
         "peak_torque_nm",
         "settle_s",
+        "move_end_s",
         "cost_j",
+        "err_deg_end_plus_0_25",
+        "rms_root_strain_ue_end_plus_0_05_0_25",
+        "cost_j_end_plus",
+        "tip_settle_0_5deg_s",
         "breakdown_at_s",
     ];
     let v = json(&beam(&[
@@ -732,7 +737,10 @@ fn simulate_plans_moves_through_waypoints_in_the_shortest_time() {
         ],
     ] {
         let v = run(extra);
-        assert!(v["err_deg_t0_6"].as_f64().unwrap() < 0.5, "{extra:?}: {v}");
+        assert!(
+            v["err_deg_end_plus_0_25"].as_f64().unwrap() < 0.5,
+            "{extra:?}: {v}"
+        );
         assert_eq!(v["faults"], "none");
     }
 }
@@ -762,7 +770,12 @@ fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
     let moves = v["moves"].as_array().unwrap();
     assert_eq!(moves.len(), 2);
     for m in moves {
-        assert!(m["hub_err_deg_after_0_25_s"].as_f64().unwrap() < 0.5, "{m}");
+        assert!(
+            m["hub_err_deg_end_plus_0_25"].as_f64().unwrap() < 0.5,
+            "{m}"
+        );
+        // Settled (0.05 deg, 5 ue) before the next command, within the move and its 0.4 s.
+        assert!(m["settle_s"].as_f64().is_some(), "{m}");
     }
     // The same commands on the command line.
     let v = json(&beam(&[

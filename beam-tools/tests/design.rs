@@ -83,7 +83,7 @@ fn shipped_smc_gains_cut_residual_strain_tenfold_with_the_hub_on_target() {
     );
     assert!(rs <= rp / 10.0, "smc {rs} ue vs pd {rp} ue");
     assert!(r.err_deg_t0_6.unwrap() <= 1.0, "{r:?}");
-    assert!(r.settle_s.unwrap() < 1.0, "{r:?}");
+    assert!(r.tip_settle_0_5deg_s.unwrap() < 1.0, "{r:?}");
 }
 
 #[test]
@@ -106,7 +106,7 @@ fn every_shipped_row_settles_its_payload_without_breakdown() {
             row.payload_kg
         );
         assert!(
-            r.err_deg_t0_6.unwrap() <= 1.0,
+            r.err_deg_end_plus_0_25.unwrap() <= 1.0,
             "{} at {} kg: {r:?}",
             row.law.name(),
             row.payload_kg

@@ -129,7 +129,7 @@ fn the_firmware_closes_the_loop_exactly_as_the_host_build_does() {
     assert!(pil.run.faults.is_empty(), "{}", pil.run.faults);
     assert!(mp.err_deg_t2_0.unwrap() < 0.5, "{mp:?}");
     assert!(pil.run.samples.last().unwrap().omega.abs() < 0.02);
-    assert!(mp.settle_s.is_some());
+    assert!(mp.tip_settle_0_5deg_s.is_some());
     assert!(mp.peak_torque_nm.unwrap() <= 10.0);
 
     // Instruction counts, one per tick, from the plugin.

@@ -108,6 +108,24 @@ pub enum Gains {
     PdFf(PdRow),
     /// `controller = "smc-i"`.
     SmcI(SmcIRow),
+    /// `controller = "lqg"`.
+    Lqg(LqgRow),
+}
+
+/// The LQG law's weights (the observer and feedback are designed from them on the plant).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LqgRow {
+    /// Hub angle weight, N m/rad.
+    pub kp: f64,
+    /// Hub rate weight, N m s/rad.
+    pub kd: f64,
+    /// Integral weight, N m/(rad s).
+    pub ki: f64,
+    /// Vibration energy weight, (N m)^2/J.
+    pub kq: f64,
+    /// Disturbance torque the observer assumes, N m.
+    pub sigma: f64,
 }
 
 /// The integral sliding mode's gains.
@@ -184,6 +202,7 @@ impl Gains {
             Gains::SmcStrain(_) => LawKind::SmcStrain,
             Gains::PdFf(_) => LawKind::PdFf,
             Gains::SmcI(_) => LawKind::SmcI,
+            Gains::Lqg(_) => LawKind::Lqg,
         }
     }
 
@@ -191,7 +210,7 @@ impl Gains {
     /// agree on them: the switching function and the model-terms flag.
     fn discrete(&self) -> (Option<Switching>, bool) {
         match self {
-            Gains::Pd(_) | Gains::PdFf(_) => (None, false),
+            Gains::Pd(_) | Gains::PdFf(_) | Gains::Lqg(_) => (None, false),
             Gains::SmcI(g) => (Some(g.switching), false),
             Gains::Smc(g) => (Some(g.switching), false),
             Gains::SmcStrain(g) => (Some(g.switching), g.model_terms),
@@ -210,6 +229,13 @@ impl Gains {
                 ("beta", g.beta),
             ],
             Gains::Smc(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta)],
+            Gains::Lqg(g) => vec![
+                ("kp", g.kp),
+                ("kd", g.kd),
+                ("ki", g.ki),
+                ("kq", g.kq),
+                ("sigma", g.sigma),
+            ],
             Gains::SmcStrain(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta), ("c", g.c)],
         }
     }
@@ -223,6 +249,7 @@ impl Gains {
             LawKind::SmcStrain => Gains::SmcStrain(v.try_into()?),
             LawKind::PdFf => Gains::PdFf(v.try_into()?),
             LawKind::SmcI => Gains::SmcI(v.try_into()?),
+            LawKind::Lqg => Gains::Lqg(v.try_into()?),
         })
     }
 
@@ -231,6 +258,7 @@ impl Gains {
         let v = match self {
             Gains::Pd(g) | Gains::PdFf(g) => toml::Value::try_from(g),
             Gains::SmcI(g) => toml::Value::try_from(g),
+            Gains::Lqg(g) => toml::Value::try_from(g),
             Gains::Smc(g) => toml::Value::try_from(g),
             Gains::SmcStrain(g) => toml::Value::try_from(g),
         };
@@ -381,7 +409,7 @@ fn check_against_plant(r: &Row, plant: &PlantSpec) -> Result<(), (&'static str, 
     let c = match &r.gains {
         Gains::SmcStrain(g) => g.c,
         Gains::SmcI(g) => g.c,
-        Gains::Pd(_) | Gains::PdFf(_) | Gains::Smc(_) => return Ok(()),
+        Gains::Pd(_) | Gains::PdFf(_) | Gains::Smc(_) | Gains::Lqg(_) => return Ok(()),
     };
     let point = plant
         .point(r.payload_kg as f32 as f64)
@@ -658,6 +686,10 @@ pub fn generate_rust(table: &Table) -> Result<String, TableError> {
                 g.beta as f32,
                 switching(g.switching)
             ),
+            Gains::Lqg(g) => format!(
+                "crate::law::Law::Lqg(crate::law::LqgGains {{ kp: {:?}, kd: {:?}, ki: {:?}, kq: {:?}, sigma: {:?} }})",
+                g.kp as f32, g.kd as f32, g.ki as f32, g.kq as f32, g.sigma as f32
+            ),
         };
         let shaper = format!(
             "crate::shaper::Shaper {{ kind: ::beam_kinds::ShaperKind::{:?}, freq_hz: {:?}, damping: {:?}, tolerance: {:?} }}",
@@ -765,7 +797,7 @@ cost_j = 2.0
         assert_eq!((e.row, e.field), (Some(1), Some("controller")));
         assert_eq!(
             e.message,
-            "`lqr`: unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i"
+            "`lqr`: unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i, lqg"
         );
         assert_eq!(bad("modes = 3", "modes = 7").field, Some("modes"));
         let e = bad("preset = \"aluminium\"", "preset = \"steel\"");
@@ -838,6 +870,7 @@ cost_j = 2.0
             LawKind::SmcStrain,
             LawKind::PdFf,
             LawKind::SmcI,
+            LawKind::Lqg,
         ] {
             let row = rows.iter().find(|r| r.gains.kind() == kind).unwrap();
             let names: Vec<&str> = row.gains.numbers().iter().map(|n| n.0).collect();

@@ -89,6 +89,31 @@ impl CommandedRun {
             .map(|k| k.theta)
     }
 
+    /// Settle time of a move commanded at `from` to `target_rad`: how long after `from` the
+    /// hub came within `spec`'s band of the target and the root strain within its band of
+    /// zero, staying there until `until` (the next move's command, or the run's end), s.
+    /// `None` if it was out of either band at `until`'s last tick.
+    pub fn settle_s(
+        &self,
+        from: f64,
+        until: f64,
+        target_rad: f64,
+        spec: &crate::metrics::SettleSpec,
+    ) -> Option<f64> {
+        let (hub, strain) = (spec.hub_deg.to_radians(), spec.strain_ue * 1e-6);
+        let window: Vec<&Tick> = self
+            .ticks
+            .iter()
+            .filter(|k| k.t >= from - 1e-9 && k.t < until - 1e-9)
+            .collect();
+        let ok = |k: &Tick| (k.theta - target_rad).abs() <= hub && k.root_strain.abs() <= strain;
+        match window.iter().rposition(|k| !ok(k)) {
+            None => window.first().map(|_| 0.0),
+            Some(i) if i + 1 < window.len() => Some(((window[i + 1].t - from) * 1e6).round() / 1e6),
+            Some(_) => None,
+        }
+    }
+
     /// RMS true root strain over `[from, to]`, microstrain.
     pub fn rms_strain_ue(&self, from: f64, to: f64) -> Option<f64> {
         let w: Vec<f64> = self

@@ -439,6 +439,11 @@ impl<const K: usize> Controller<K> {
         self.st.mode
     }
 
+    /// The law's own state: smc-i's integral, the LQG law's observer estimate.
+    pub fn law_state(&self) -> &LawState {
+        &self.st.law_state
+    }
+
     /// The latched faults.
     pub fn faults(&self) -> FaultFlags {
         self.st.faults

@@ -6,7 +6,7 @@
 //! drive is configured, not in the tick: the result is validated by `ControlLaw::try_build`
 //! and swapped in whole.
 
-use crate::law::{Law, LawKind, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains};
+use crate::law::{Law, LawKind, LqgGains, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains};
 use crate::shaper::Shaper;
 
 /// One row of the table: the gains for one controller at one payload.
@@ -64,7 +64,7 @@ pub fn schedule(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law
 pub fn scheduled_law(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law> {
     schedule(table, kind, payload_kg).or(match kind {
         LawKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
-        LawKind::Smc | LawKind::SmcStrain | LawKind::PdFf | LawKind::SmcI => None,
+        LawKind::Smc | LawKind::SmcStrain | LawKind::PdFf | LawKind::SmcI | LawKind::Lqg => None,
     })
 }
 
@@ -127,7 +127,22 @@ fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
         }),
         // Rows are filtered by kind, so kinds always match. Listed by variant, not `_`, so
         // that a new law is a compile error here until it says how its gains interpolate.
-        (Law::Pd(_) | Law::Smc(_) | Law::SmcStrain(_) | Law::PdFf(_) | Law::SmcI(_), _) => *lo,
+        (Law::Lqg(a), Law::Lqg(b)) => Law::Lqg(LqgGains {
+            kp: mix(a.kp, b.kp),
+            kd: mix(a.kd, b.kd),
+            ki: mix(a.ki, b.ki),
+            kq: mix(a.kq, b.kq),
+            sigma: mix(a.sigma, b.sigma),
+        }),
+        (
+            Law::Pd(_)
+            | Law::Smc(_)
+            | Law::SmcStrain(_)
+            | Law::PdFf(_)
+            | Law::SmcI(_)
+            | Law::Lqg(_),
+            _,
+        ) => *lo,
     }
 }
 

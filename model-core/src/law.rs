@@ -6,12 +6,13 @@
 //! per-tick [`ControlLaw::torque_nm`] is a handful of multiply-adds and one `tanhf`.
 
 use crate::beam::{ParamError, ParamErrorKind};
-#[cfg(doc)]
-use crate::modal::ModalModel;
-use crate::modal::MAX_MODES;
+use crate::modal::{ModalModel, MAX_MODES};
 use crate::plant::PlantPoint;
 use crate::spline::RefPoint;
 use beam_kinds::GainRule;
+#[cfg(feature = "observer")]
+use beam_model::lqg::MAX_STATES;
+use beam_model::lqg::{self, LqgDesign, LqgError, LqgWeights, SensorNoise};
 
 pub use beam_kinds::{GainSpec, LawKind, Search, Sign, Switching};
 
@@ -91,6 +92,24 @@ pub struct SmcIGains {
     pub switching: Switching,
 }
 
+/// LQG weights (`beam_model::lqg::LqgWeights` in `f32`): the state feedback with integral
+/// action and the Kalman observer are designed from them and the plant when the law is built
+/// on a modal model ([`ControlLaw::try_build`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LqgGains {
+    /// Hub angle weight as a stiffness, N m/rad.
+    pub kp: f32,
+    /// Hub rate weight, N m s/rad.
+    pub kd: f32,
+    /// Integral weight, N m/(rad s).
+    pub ki: f32,
+    /// Weight on the beam's vibration energy, (N m)^2/J.
+    pub kq: f32,
+    /// Disturbance torque the observer assumes, N m.
+    pub sigma: f32,
+}
+
 /// Which law runs, with its gains. Each variant carries only the gains its law uses; its
 /// [`LawKind`] is [`Law::kind`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,6 +125,8 @@ pub enum Law {
     PdFf(PdFfGains),
     /// The integral sliding mode with rigid-body feedforward.
     SmcI(SmcIGains),
+    /// LQR with integral action on a Kalman modal observer, with rigid-body feedforward.
+    Lqg(LqgGains),
 }
 
 impl Law {
@@ -117,6 +138,7 @@ impl Law {
             Law::SmcStrain(_) => LawKind::SmcStrain,
             Law::PdFf(_) => LawKind::PdFf,
             Law::SmcI(_) => LawKind::SmcI,
+            Law::Lqg(_) => LawKind::Lqg,
         }
     }
 
@@ -141,6 +163,13 @@ impl Law {
             Law::SmcI(SmcIGains {
                 w, wi, a, beta, c, ..
             }) => [w, wi, a, beta, c],
+            Law::Lqg(LqgGains {
+                kp,
+                kd,
+                ki,
+                kq,
+                sigma,
+            }) => [kp, kd, ki, kq, sigma],
         }
     }
 
@@ -180,13 +209,104 @@ pub struct Estimate {
     pub strain_rate: f32,
 }
 
-/// What a law carries from one tick to the next: the integral of the hub error (smc-i). Zero
-/// when a move starts.
+/// What a law carries from one tick to the next: the integral of the hub error (smc-i, lqg)
+/// and the observer's state (lqg). Zero when a move starts.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LawState {
     /// Integral of `theta - theta_r` since the move started, rad s.
     pub integral: f32,
+    /// The LQG law's observer and reference beam.
+    #[cfg(feature = "observer")]
+    pub lqg: ObserverState,
+}
+
+/// The LQG law's state between ticks.
+#[cfg(feature = "observer")]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ObserverState {
+    /// The observer's state estimate, in [`LqgDesign`]'s layout.
+    pub estimate: [f32; MAX_STATES],
+    /// The reference beam's modes and rates, see [`LqgDesign::ref_ad`].
+    pub reference: [f32; 2 * MAX_MODES],
+    /// The torque the drive applied last tick, within the limit, N m.
+    pub applied_nm: f32,
+    /// The observer has been started from the measured hub angle.
+    pub observing: bool,
+}
+
+/// Flexible modes the LQG law observes and controls: the first (see `LawPlant::lqg`).
+pub const LQG_MODES: usize = 2;
+
+/// The noise the LQG observer assumes on the root strain gauge, strain: a bridge amplifier's
+/// typical floor (0.5 ue), well above a 24-bit converter's quantisation.
+pub const ASSUMED_STRAIN_NOISE: f64 = 0.5e-6;
+
+/// What a law is built on: the plant at the drive's payload ([`PlantPoint`], what a drive
+/// carries compiled in), or a whole modal model, on which the LQG law is designed too.
+pub trait LawPlant {
+    /// The plant's numbers the laws read.
+    fn point(&self) -> PlantPoint;
+    /// The LQG design for `gains` on this plant, sampled at `ts_s`, with the sensor noise
+    /// of `encoder` and `adc`; `None` if this plant cannot design one (a [`PlantPoint`]).
+    fn lqg(
+        &self,
+        _gains: &LqgGains,
+        _encoder: &crate::measure::EncoderSpec,
+        _adc: &crate::measure::AdcSpec,
+        _ts_s: f64,
+    ) -> Option<Result<LqgDesign, LqgError>> {
+        None
+    }
+}
+
+impl LawPlant for PlantPoint {
+    fn point(&self) -> PlantPoint {
+        *self
+    }
+}
+
+impl LawPlant for &PlantPoint {
+    fn point(&self) -> PlantPoint {
+        **self
+    }
+}
+
+impl<const N: usize> LawPlant for &ModalModel<N> {
+    fn point(&self) -> PlantPoint {
+        PlantPoint::of(self)
+    }
+
+    fn lqg(
+        &self,
+        g: &LqgGains,
+        encoder: &crate::measure::EncoderSpec,
+        adc: &crate::measure::AdcSpec,
+        ts_s: f64,
+    ) -> Option<Result<LqgDesign, LqgError>> {
+        let weights = LqgWeights {
+            kp: g.kp as f64,
+            kd: g.kd as f64,
+            ki: g.ki as f64,
+            kq: g.kq as f64,
+            sigma_nm: g.sigma as f64,
+        };
+        let quantum = |step: f64| step / libm::sqrt(12.0);
+        let noise = SensorNoise {
+            theta_rad: quantum(encoder.rad_per_count()),
+            strain: quantum(adc.strain_per_code()).max(ASSUMED_STRAIN_NOISE),
+        };
+        // On the first mode only: a controller that also observes the higher modes tracks
+        // them on the model's frequencies, and a beam a few percent off those turns them
+        // unstable (spillover; with 1 % damping there is no margin to spare). Left out, they
+        // see a gain that has rolled off by their frequencies.
+        if !cfg!(feature = "observer") {
+            return None;
+        }
+        let first = lqg::leading_modes::<N, LQG_MODES>(self)?;
+        Some(lqg::design(&first, &weights, &noise, ts_s))
+    }
 }
 
 /// gamma = e' Mqq^-1 h, how much a hub acceleration shows in the root strain of the held
@@ -217,7 +337,32 @@ pub struct ControlLaw {
     integral_max: f32,
     /// Model-term coefficients (strain law with `model_terms`), see `try_build`.
     model: ModelTerms,
+    /// The LQG design (lqg; all zero for the other laws).
+    #[cfg(feature = "observer")]
+    observer: LqgDesign,
 }
+
+/// An all-zero design, for the laws without an observer.
+#[cfg(feature = "observer")]
+const NO_OBSERVER: LqgDesign = LqgDesign {
+    states: 0,
+    ad: [[0.0; MAX_STATES]; MAX_STATES],
+    bd: [0.0; MAX_STATES],
+    strain_coef: [0.0; MAX_MODES],
+    l: [[0.0; 2]; MAX_STATES],
+    k: [0.0; MAX_STATES],
+    ki: 0.0,
+    ref_ad: [[0.0; 2 * MAX_MODES]; 2 * MAX_MODES],
+    ref_bd: [0.0; 2 * MAX_MODES],
+    ff_q: [0.0; MAX_MODES],
+    ff_dq: [0.0; MAX_MODES],
+    ref_s: [[0.0; MAX_MODES]; MAX_MODES],
+    obs_s: [[0.0; MAX_MODES]; 1 + MAX_MODES],
+    ff_s: [0.0; MAX_MODES],
+    jeff: 0.0,
+    viscous: 0.0,
+    torque_limit_nm: 0.0,
+};
 
 /// `C M^-1 (N + K)` with q = [q1, 0, ..] from the root strain, reduced to scalars.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -235,9 +380,12 @@ struct ModelTerms {
 
 impl ControlLaw {
     /// Validates `law`'s gains and precomputes what the tick needs from the plant: a
-    /// [`PlantPoint`] (the drive's compiled plant at its payload) or a [`ModalModel`].
-    pub fn try_build(law: Law, plant: impl Into<PlantPoint>) -> Result<Self, ParamError> {
-        let model = &plant.into();
+    /// [`PlantPoint`] (the drive's compiled plant at its payload) or a [`ModalModel`]. The
+    /// LQG law is designed on a modal model only (sampled at [`crate::DEFAULT_TS_S`], with
+    /// the compiled `[drive]`'s instruments as its sensor noise); on a [`PlantPoint`] it is
+    /// refused.
+    pub fn try_build(law: Law, plant: impl LawPlant) -> Result<Self, ParamError> {
+        let model = &plant.point();
         let jeff = model.jeff;
         let plain = Self {
             law,
@@ -245,6 +393,8 @@ impl ControlLaw {
             rigid_inertia: model.mtt as f32,
             integral_max: 0.0,
             model: ModelTerms::default(),
+            #[cfg(feature = "observer")]
+            observer: NO_OBSERVER,
         };
         // Every gain's sign, by the law's spec; then what each law needs of the plant.
         law.check()?;
@@ -267,7 +417,45 @@ impl ControlLaw {
                     ..plain
                 })
             }
+            #[cfg(feature = "observer")]
+            Law::Lqg(g) => Self::lqg_law(plain, &g, &plant),
+            #[cfg(not(feature = "observer"))]
+            Law::Lqg(_) => Err(ParamError {
+                field: "lqg",
+                kind: ParamErrorKind::NeedsModel,
+            }),
         }
+    }
+
+    /// The LQG law's design on `plant` (see [`ControlLaw::try_build`]).
+    #[cfg(feature = "observer")]
+    fn lqg_law(plain: Self, g: &LqgGains, plant: &impl LawPlant) -> Result<Self, ParamError> {
+        let drive = &crate::gains::DRIVE;
+        let design = plant
+            .lqg(g, &drive.encoder, &drive.adc, crate::DEFAULT_TS_S as f64)
+            .ok_or(ParamError {
+                field: "lqg",
+                kind: ParamErrorKind::NeedsModel,
+            })?
+            .map_err(|e| ParamError {
+                field: "lqg",
+                kind: match e {
+                    LqgError::Weights => ParamErrorKind::OutOfRange,
+                    LqgError::Numerics => ParamErrorKind::NoDesign,
+                },
+            })?;
+        // |Ki z| within the limit: the integral cannot wind up past what it can use.
+        let ki = libm::fabsf(design.ki);
+        Ok(Self {
+            integral_max: if ki > 0.0 {
+                design.torque_limit_nm / ki
+            } else {
+                0.0
+            },
+            #[cfg(feature = "observer")]
+            observer: design,
+            ..plain
+        })
     }
 
     /// `[C M0^-1 B]^-1 = Jeff / (1 - c gamma)` for the output y = theta + c eps_root (see
@@ -310,6 +498,8 @@ impl ControlLaw {
             rigid_inertia: m.mtt as f32,
             integral_max: 0.0,
             model,
+            #[cfg(feature = "observer")]
+            observer: NO_OBSERVER,
         })
     }
 
@@ -369,7 +559,131 @@ impl ControlLaw {
                 self.rigid_inertia * r.acc
                     - self.inertia * (g.w * de + g.wi * e + g.a * g.switching.apply(g.beta * s))
             }
+            #[cfg(feature = "observer")]
+            Law::Lqg(_) => self.lqg_torque(x, r, state, ts_s),
+            // Never built without the feature (`try_build` refuses it).
+            #[cfg(not(feature = "observer"))]
+            Law::Lqg(_) => 0.0,
         }
+    }
+
+    /// The LQG tick: the observer's predict (with the torque applied last tick) and update
+    /// (with the hub angle and root strain), then the state feedback about the reference
+    /// state (the hub on its reference, the beam bent as the reference's acceleration bends
+    /// it), the integral, and the rigid-body feedforward. Fixed loops over the whole layout:
+    /// no bound is read at run time.
+    #[cfg(feature = "observer")]
+    #[inline(always)]
+    fn lqg_torque(&self, x: &Estimate, r: &RefPoint, law: &mut LawState, ts_s: f32) -> f32 {
+        const RATE: usize = 1 + MAX_MODES;
+        let d = &self.observer;
+        let state = &mut law.lqg;
+        if !state.observing {
+            // From rest at the measured angle: a move starts with the hub still.
+            state.estimate = [0.0; MAX_STATES];
+            state.estimate[0] = x.theta;
+            state.reference = [0.0; 2 * MAX_MODES];
+            state.applied_nm = 0.0;
+            state.observing = true;
+        }
+        let xo = &state.estimate;
+        let mut pred = [0.0f32; MAX_STATES];
+        for (p, (row, b)) in pred.iter_mut().zip(d.ad.iter().zip(&d.bd)) {
+            let mut acc = b * state.applied_nm;
+            for (a, xj) in row.iter().zip(xo) {
+                acc += a * xj;
+            }
+            *p = acc;
+        }
+        // The centrifugal term at the estimated hub rate, on the rates' rows.
+        let w2_est = xo[RATE] * xo[RATE];
+        for (p, row) in pred[RATE..].iter_mut().zip(&d.obs_s) {
+            let mut acc = 0.0;
+            for (a, q) in row.iter().zip(&xo[1..RATE]) {
+                acc += a * q;
+            }
+            *p += w2_est * acc;
+        }
+        let innov_theta = x.theta - pred[0];
+        let mut innov_strain = x.strain;
+        for (e, q) in d.strain_coef.iter().zip(&pred[1..]) {
+            innov_strain -= e * q;
+        }
+        // The reference beam at this tick, its feedforward, and its next state.
+        let rb = &state.reference;
+        let mut u = d.jeff * r.acc + d.viscous * r.vel;
+        // The hub rate squared: the centrifugal term (minus the foreshortening) of the
+        // reference beam, `M^-1 [-h' ; I] w^2 S q` in the hub's and the modes' equations.
+        let w2 = r.vel * r.vel;
+        for (((fq, fdq), fs), (q, dq)) in d
+            .ff_q
+            .iter()
+            .zip(&d.ff_dq)
+            .zip(&d.ff_s)
+            .zip(rb.iter().zip(&rb[MAX_MODES..]))
+        {
+            u += fq * q + fdq * dq + w2 * fs * q;
+        }
+        let mut next = [0.0f32; 2 * MAX_MODES];
+        for (nz, (row, b)) in next.iter_mut().zip(d.ref_ad.iter().zip(&d.ref_bd)) {
+            let mut acc = b * r.acc;
+            for (a, z) in row.iter().zip(rb) {
+                acc += a * z;
+            }
+            *nz = acc;
+        }
+        for (nz, row) in next[MAX_MODES..].iter_mut().zip(&d.ref_s) {
+            let mut acc = 0.0;
+            for (a, q) in row.iter().zip(rb) {
+                acc += a * q;
+            }
+            *nz += w2 * acc;
+        }
+        for (i, (xi, (p, l))) in state
+            .estimate
+            .iter_mut()
+            .zip(pred.iter().zip(&d.l))
+            .enumerate()
+        {
+            *xi = p + l[0] * innov_theta + l[1] * innov_strain;
+            let reference = if i == 0 {
+                r.pos
+            } else if i < RATE {
+                state.reference[i - 1]
+            } else if i == RATE {
+                r.vel
+            } else {
+                state.reference[i - 1 - RATE + MAX_MODES]
+            };
+            u -= d.k[i] * (*xi - reference);
+        }
+        // Once the reference is at rest the reference beam is too: whatever it would still
+        // ring with (a shaper's residual, a mode it was not tuned for) is the feedback's to
+        // damp, not to follow.
+        state.reference = if r.vel == 0.0 && r.acc == 0.0 {
+            [0.0; 2 * MAX_MODES]
+        } else {
+            next
+        };
+        let m = self.integral_max;
+        let z = law.integral + (state.estimate[0] - r.pos) * ts_s;
+        law.integral = if z > m {
+            m
+        } else if z < -m {
+            -m
+        } else {
+            z
+        };
+        u -= d.ki * law.integral;
+        let limit = d.torque_limit_nm;
+        state.applied_nm = if u > limit {
+            limit
+        } else if u < -limit {
+            -limit
+        } else {
+            u
+        };
+        u
     }
 }
 
@@ -407,6 +721,13 @@ mod tests {
                 beta: 4.0,
                 c: 5.0,
                 switching: Switching::Tanh,
+            }),
+            Law::Lqg(LqgGains {
+                kp: 1.0,
+                kd: 2.0,
+                ki: 3.0,
+                kq: 4.0,
+                sigma: 5.0,
             }),
         ];
         for law in laws {

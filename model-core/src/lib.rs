@@ -59,7 +59,7 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
-pub use beam_model::{beam, linalg, modal, plant};
+pub use beam_model::{beam, linalg, lqg, modal, plant};
 pub mod commands;
 pub mod controller;
 pub mod error;
@@ -87,8 +87,8 @@ pub use controller::{
     Snapshot, TorqueCommand,
 };
 pub use law::{
-    ControlLaw, Law, LawKind, LawState, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains,
-    Switching,
+    ControlLaw, Law, LawKind, LawState, LqgGains, PdFfGains, PdGains, SmcGains, SmcIGains,
+    StrainSmcGains, Switching,
 };
 pub use measure::{AdcSpec, EncoderSpec};
 pub use modal::{ModalModel, ModelError};

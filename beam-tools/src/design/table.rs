@@ -4,7 +4,7 @@
 
 use gain_table::{Gains, Row};
 use model_core::gains::GainRow;
-use model_core::{Law, PdFfGains, PdGains, Shaper, SmcGains, SmcIGains, StrainSmcGains};
+use model_core::{Law, LqgGains, PdFfGains, PdGains, Shaper, SmcGains, SmcIGains, StrainSmcGains};
 
 /// The rows of `rows` as the drive would run them: gains rounded to f32, as the build does.
 /// Rows keep their order (the table's parser has already checked that each controller's rows
@@ -42,6 +42,13 @@ fn gain_row(r: &Row) -> GainRow {
             a: g.a as f32,
             beta: g.beta as f32,
             switching: g.switching,
+        }),
+        Gains::Lqg(g) => Law::Lqg(LqgGains {
+            kp: g.kp as f32,
+            kd: g.kd as f32,
+            ki: g.ki as f32,
+            kq: g.kq as f32,
+            sigma: g.sigma as f32,
         }),
     };
     GainRow {

@@ -2,13 +2,14 @@
 //! with the drive either the PIL firmware under QEMU (`--pil`, compared bit for bit with the
 //! host's build) or model-core's handler on the host (`--sim`).
 
-use crate::named;
+use crate::{named, SettleArgs};
 use anyhow::{bail, Context};
 use beam_tools::link::drive_script;
 use beam_tools::link::pil_host::{build_plugin, paths, run_pil_commands, PilConfig};
 use beam_wire::command::{Command, Outcome, Request};
 use clap::Args;
 use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
+use host_tests::metrics::SettleSpec;
 use host_tests::sensors::SensorConfig;
 use model_core::LawKind;
 use serde_json::json;
@@ -16,6 +17,8 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct DriveArgs {
+    #[command(flatten)]
+    settle: SettleArgs,
     /// Run the commands on the PIL firmware under QEMU, against the simulated beam (and
     /// on the host's build, to compare).
     #[arg(long, conflicts_with_all = ["sim", "port"])]
@@ -83,6 +86,10 @@ pub struct DriveArgs {
 struct MoveResult {
     command: String,
     target_deg: Option<f64>,
+    /// When the move was commanded, s.
+    commanded_s: f64,
+    /// Settle time from the command, s (the true beam: --sim and --pil only).
+    settle_s: Option<f64>,
     end_s: f64,
     hub_err_deg: Option<f64>,
     rms_strain_ue: Option<f64>,
@@ -154,7 +161,7 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         )?;
         (run, None)
     };
-    let moves = move_results(&run);
+    let moves = move_results(&run, &a.settle.spec()?);
     if a.json {
         let exchanges: Vec<_> = run
             .exchanges
@@ -174,9 +181,11 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
                 json!({
                     "command": m.command,
                     "target_deg": m.target_deg,
+                    "commanded_s": m.commanded_s,
                     "end_s": m.end_s,
-                    "hub_err_deg_after_0_25_s": m.hub_err_deg,
-                    "rms_root_strain_ue_0_05_0_25_s": m.rms_strain_ue,
+                    "settle_s": m.settle_s,
+                    "hub_err_deg_end_plus_0_25": m.hub_err_deg,
+                    "rms_root_strain_ue_end_plus_0_05_0_25": m.rms_strain_ue,
                 })
             })
             .collect();
@@ -207,9 +216,10 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         for m in &moves {
             let f = |x: Option<f64>, d: usize| x.map_or("-".into(), |v| format!("{v:.d$}"));
             println!(
-                "  {:<28} ends {:.3} s; 0.25 s later: hub error {} deg, RMS root strain {} ue",
+                "  {:<28} settled {} after its command; reference ends {:.3} s after it; 0.25 s later: hub error {} deg, RMS root strain {} ue",
                 m.command,
-                m.end_s,
+                m.settle_s.map_or("never (before the next move or the end)".into(), |v| format!("{v:.3} s")),
+                m.end_s - m.commanded_s,
                 f(m.hub_err_deg, 3),
                 f(m.rms_strain_ue, 1)
             );
@@ -264,7 +274,7 @@ fn describe(r: &Request) -> String {
     }
 }
 
-fn move_results(run: &CommandedRun) -> Vec<MoveResult> {
+fn move_results(run: &CommandedRun, settle: &SettleSpec) -> Vec<MoveResult> {
     let target = |e: &Exchange| match &e.request.command {
         Command::MoveTo { to_rad, .. } => Some(to_rad.to_degrees() as f64),
         Command::MoveThrough { waypoints, .. } => {
@@ -288,15 +298,26 @@ fn move_results(run: &CommandedRun) -> Vec<MoveResult> {
                     return Some(MoveResult {
                         command: format!("{} (stopped)", describe(&e.request)),
                         target_deg: None,
+                        commanded_s: e.t,
+                        settle_s: None,
                         end_s,
                         hub_err_deg: None,
                         rms_strain_ue: None,
                     });
                 }
                 let target_deg = target(e);
+                // Settled before the next move's command (or the run's end).
+                let until = starts
+                    .iter()
+                    .copied()
+                    .find(|&t| t > e.t)
+                    .unwrap_or(f64::INFINITY);
                 Some(MoveResult {
                     command: describe(&e.request),
                     target_deg,
+                    commanded_s: e.t,
+                    settle_s: target_deg
+                        .and_then(|t| run.settle_s(e.t, until, t.to_radians(), settle)),
                     end_s,
                     hub_err_deg: target_deg.and_then(|t| {
                         run.theta_at(end_s + 0.25)

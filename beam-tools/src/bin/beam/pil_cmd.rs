@@ -95,7 +95,7 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
     a.run.write(&out.run, &title)?;
     let insns = out.insns;
     if a.run.json {
-        let mut o = crate::run_json(&out.run, &law, preset, a.plant.modes)?;
+        let mut o = crate::run_json(&out.run, &law, preset, a.plant.modes, &a.run.settle.spec()?)?;
         o.insert("pil_ticks".into(), json!(out.ticks));
         o.insert("pil_max_torque_diff".into(), json!(out.max_torque_diff));
         o.insert("pil_max_ulps".into(), json!(out.max_ulps));
@@ -105,7 +105,7 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
         o.insert("insns_max".into(), json!(insns.map(|i| i.max)));
         println!("{}", json!(o));
     } else {
-        crate::print_summary(&out.run, &law, preset, a.plant.modes);
+        crate::print_summary(&out.run, &law, preset, a.plant.modes, &a.run.settle.spec()?);
         println!(
             "  PIL: {} ticks on the emulated STM32F405; torques {} the host build's{}",
             out.ticks,

@@ -1,7 +1,7 @@
 //! `beam sweep`: Monte Carlo over parameter errors and payloads, the scheduled controller
 //! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
 
-use crate::{beam, named, PlantArgs};
+use crate::{beam, named, PlantArgs, SettleArgs};
 use anyhow::{bail, Context};
 use beam_tools::design::sweep::{sweep, Case, LawSummary, SweepSpec, SUMMARY};
 use beam_tools::io::plot::{histograms, HistogramPanel};
@@ -17,6 +17,12 @@ use std::time::Instant;
 pub struct SweepArgs {
     #[command(flatten)]
     plant: PlantArgs,
+    #[command(flatten)]
+    settle: SettleArgs,
+    /// Simulated time of each case from the move command, s: a case not settled by then
+    /// counts as never settled.
+    #[arg(long, default_value_t = beam_tools::design::sweep::DEFAULT_DURATION_S)]
+    duration: f64,
     /// Controller (gains from the compiled table at each case's payload).
     #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
     controller: LawKind,
@@ -86,6 +92,8 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         coulomb_max_nm: a.coulomb_max,
         moves_deg: a.moves.clone(),
         shortest: a.shortest,
+        duration_s: a.duration,
+        settle: a.settle.spec()?,
     };
     let started = Instant::now();
     let cases = with_modes!(
@@ -118,6 +126,13 @@ fn check(a: &SweepArgs) -> anyhow::Result<()> {
     if !(a.payload_max.is_finite() && (0.0..=1.0).contains(&a.payload_max)) {
         bail!("--payload-max {} must be in [0, 1] kg", a.payload_max);
     }
+    if !(a.duration.is_finite() && a.duration > 0.0 && a.duration <= 600.0) {
+        bail!(
+            "--duration {} must be a number of seconds in (0, 600]",
+            a.duration
+        );
+    }
+    a.settle.spec()?;
     if a.cases == 0 || a.cases > 1_000_000 {
         bail!("--cases {} must be 1..=1000000", a.cases);
     }
@@ -157,17 +172,27 @@ fn write_files(a: &SweepArgs, cases: &[Case]) -> anyhow::Result<()> {
     let Some(path) = &a.plot else {
         return Ok(());
     };
+    // Finite values only: a run that never settled has no place on the axis (the text
+    // report counts them).
     let panel = |title, unit, pick: fn(&Metrics) -> Option<f64>| HistogramPanel {
         title,
         unit,
-        controller: cases.iter().filter_map(|c| pick(&c.controller)).collect(),
-        baseline: cases.iter().filter_map(|c| pick(&c.baseline)).collect(),
+        controller: cases
+            .iter()
+            .filter_map(|c| pick(&c.controller))
+            .filter(|v| v.is_finite())
+            .collect(),
+        baseline: cases
+            .iter()
+            .filter_map(|c| pick(&c.baseline))
+            .filter(|v| v.is_finite())
+            .collect(),
     };
     let panels = [
-        panel("RMS root strain 0.4..0.6 s", "microstrain", |m| {
-            m.rms_root_strain_ue_0_4_0_6
+        panel("Settle time from the move command", "s", |m| m.settle_s),
+        panel("RMS root strain T+0.05..T+0.25 s", "microstrain", |m| {
+            m.rms_root_strain_ue_end_plus_0_05_0_25
         }),
-        panel("Hub error at 0.6 s", "deg", |m| m.err_deg_t0_6),
     ];
     let kind = a.controller.name();
     let title = format!(
@@ -216,13 +241,18 @@ fn print_json(
     put("payload_max_kg", json!(a.payload_max));
     put("seed", json!(a.seed));
     put("seconds", json!(seconds));
+    put("duration_s", json!(a.duration));
+    put("settle_band", json!(a.settle.spec().ok()));
     put("breakdowns", json!(controller.breakdowns));
+    put("unsettled", json!(controller.unsettled));
     put("baseline_breakdowns", json!(baseline.breakdowns));
+    put("baseline_unsettled", json!(baseline.unsettled));
     put("metrics", json!(obj(controller)));
     put("baseline_metrics", json!(obj(baseline)));
     if let Some(p) = peer {
         put("peer", json!("pd-ff"));
         put("peer_breakdowns", json!(p.breakdowns));
+        put("peer_unsettled", json!(p.unsettled));
         put("peer_metrics", json!(obj(p)));
     }
     if a.coulomb_max > 0.0 {
@@ -254,12 +284,21 @@ fn print_text(
         "  model breakdowns: {kind} {}, pd {} (metrics below are over the runs that stayed in range)",
         controller.breakdowns, baseline.breakdowns
     );
+    println!(
+        "  not settled within the {} s run (hub {} deg, root strain {} ue): {kind} {}, pd {}",
+        a.duration,
+        a.settle.settle_hub_deg,
+        a.settle.settle_strain_ue,
+        controller.unsettled,
+        baseline.unsettled
+    );
     if let Some(p) = peer {
         println!(
-            "  pd-ff peer (its table shaper): {} breakdowns",
-            p.breakdowns
+            "  pd-ff peer (its table shaper): {} breakdowns, {} not settled",
+            p.breakdowns, p.unsettled
         );
     }
+    println!("  settle_s counts from the move command; T is when each move's reference ends");
     println!(
         "  {:32} {:>30} {:>30} {:>30}",
         "metric (p50 / p95 / max)",
@@ -267,9 +306,16 @@ fn print_text(
         "pd 20/1",
         if peer.is_some() { "pd-ff" } else { "" }
     );
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:.3}")
+        } else {
+            "never".to_string()
+        }
+    };
     let fmt = |p: Option<(f64, f64, f64)>| {
         p.map_or("n/a".to_string(), |(a, b, c)| {
-            format!("{a:.3} / {b:.3} / {c:.3}")
+            format!("{} / {} / {}", num(a), num(b), num(c))
         })
     };
     for (i, ((name, c), (_, b))) in controller.metrics.iter().zip(&baseline.metrics).enumerate() {
@@ -296,6 +342,7 @@ fn write_csv(cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
         write!(w, ",{who}_breakdown_at_s")?;
     }
     writeln!(w)?;
+    // Empty for none; a run that never settled writes `inf`.
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     let empty = Metrics::default();
     for (i, c) in cases.iter().enumerate() {

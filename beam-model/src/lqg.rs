@@ -1,0 +1,688 @@
+//! A linear-quadratic-Gaussian design for the slewing beam: the sampled linear model about
+//! rest, a steady-state Kalman filter (the modal state observer) and a state-feedback gain
+//! with integral action, both from discrete algebraic Riccati equations.
+//!
+//! The state is `x = [theta, q_1..q_n, theta', q_1'..q_n']` (hub angle, modal coordinates
+//! and their rates); the input the hub torque; the outputs the hub angle (encoder) and the
+//! root strain `e' q` (the gauge). About rest (`theta' = 0`, `q = 0`) the model is
+//! `M x'' + C x' + K x = b tau` with `M = [[Mtt, h'], [h, Mqq]]`, `C = diag(c_v, Cq)`,
+//! `K = diag(0, Kqq)`, `b = e_0`: the centrifugal and Coriolis terms are second order and
+//! dropped, Coulomb friction is left to the integral action.
+//!
+//! `f64`, fixed-size, no allocation: it runs where the model is built (a host tool, or the
+//! build script that compiles a gain table), never per tick. [`LqgDesign`] holds the result
+//! in `f32`, ready for a drive's tick.
+//!
+//! Method: zero-order-hold discretisation by the matrix exponential of Van Loan's augmented
+//! matrix (scaling and squaring of a Taylor series), and both Riccati equations by the
+//! structure-preserving doubling algorithm (quadratic convergence; Chu, Fan, Lin, Wang,
+//! "Structure-preserving algorithms for periodic discrete-time algebraic Riccati equations",
+//! 2004), which needs no eigen-decomposition.
+
+// Dense matrix algebra reads best with its indices: `a[i][j]` as in the formulas.
+#![allow(clippy::needless_range_loop)]
+
+use crate::modal::{ModalModel, MAX_MODES};
+
+/// Most states of the observer: the hub angle and rate, and two per flexible mode.
+pub const MAX_STATES: usize = 2 + 2 * MAX_MODES;
+
+/// Working dimension: the states, the integral, and Van Loan's input column.
+const D: usize = MAX_STATES + 2;
+
+type Mat = [[f64; D]; D];
+
+const ZERO: Mat = [[0.0; D]; D];
+
+/// The design's weights: a quadratic cost on the error from the reference and a Gaussian
+/// model of what disturbs and corrupts the loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LqgWeights {
+    /// Hub angle weight as a stiffness, N m/rad: for a rigid hub the loop's proportional
+    /// gain tends to it.
+    pub kp: f64,
+    /// Hub rate weight, N m s/rad.
+    pub kd: f64,
+    /// Integral-of-angle weight, N m/(rad s).
+    pub ki: f64,
+    /// Weight on the beam's vibration energy, (N m)^2/J: how much the loop spends to damp it.
+    pub kq: f64,
+    /// Standard deviation of the disturbance torque the observer assumes, N m: larger trusts
+    /// the sensors more (a faster observer).
+    pub sigma_nm: f64,
+}
+
+/// What the sensors resolve, for the observer's measurement noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorNoise {
+    /// Hub angle noise (the encoder's quantisation, step / sqrt(12)), rad.
+    pub theta_rad: f64,
+    /// Root strain noise (the converter's), strain.
+    pub strain: f64,
+}
+
+/// Why a design failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LqgError {
+    /// A weight or noise level is not finite and positive (or, for `ki` and `kq`, negative).
+    Weights,
+    /// A matrix was singular, or a Riccati iteration did not converge.
+    Numerics,
+}
+
+/// An LQG design in `f32`, for the tick: `x_pred = Ad x + Bd u_prev`, `x = x_pred + L (y -
+/// C x_pred)`, `u = ff - K [x - x_ref; z]`.
+///
+/// The layout is fixed whatever the model's mode count, so the tick has no variable bounds:
+/// index 0 the hub angle, `1 + i` mode i's coordinate, `1 + MAX_MODES` the hub rate,
+/// `2 + MAX_MODES + i` mode i's rate; entries of modes past the model's are zero.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LqgDesign {
+    /// Number of states in use, `2 + 2 n`.
+    pub states: usize,
+    /// The sampled state matrix.
+    pub ad: [[f32; MAX_STATES]; MAX_STATES],
+    /// The sampled input column, per N m.
+    pub bd: [f32; MAX_STATES],
+    /// Root strain per modal coordinate (the second output row is `[0, e, 0, 0]`).
+    pub strain_coef: [f32; MAX_MODES],
+    /// The Kalman gain, a column per output: hub angle, root strain.
+    pub l: [[f32; 2]; MAX_STATES],
+    /// The state-feedback gain, N m per state unit.
+    pub k: [f32; MAX_STATES],
+    /// The integral's gain, N m/(rad s).
+    pub ki: f32,
+    /// The reference beam: the modes of a beam whose hub follows the reference exactly (the
+    /// clamped-hub dynamics `Mqq q'' + Cq q' + Kqq q = -h theta_r''`), sampled: state
+    /// `[q_0..q_3, q_0'..q_3']`, `r+ = ref_ad r + ref_bd theta_r''`. A beam bent and swinging
+    /// as the reference itself makes it is not an error for the feedback.
+    pub ref_ad: [[f32; 2 * MAX_MODES]; 2 * MAX_MODES],
+    /// The reference beam's input column, per rad/s^2.
+    pub ref_bd: [f32; 2 * MAX_MODES],
+    /// The feedforward that makes the hub follow the reference with the reference beam on
+    /// it: `tau_ff = Jeff theta_r'' + ff_q . q + ff_dq . q' + c_v theta_r'`, where
+    /// `ff_q = -h' Mqq^-1 Kqq` and `ff_dq = -h' Mqq^-1 Cq`.
+    pub ff_q: [f32; MAX_MODES],
+    /// See `ff_q`.
+    pub ff_dq: [f32; MAX_MODES],
+    /// The centrifugal term of the reference beam, per (rad/s)^2 of hub rate and per tick:
+    /// `ts Mqq^-1 S`, added to the reference beam's rates as `theta_r'^2 ref_s q`. At the
+    /// speeds of a fast slew it changes the beam's stiffness by a fifth.
+    pub ref_s: [[f32; MAX_MODES]; MAX_MODES],
+    /// The centrifugal term in the observer's prediction, per (rad/s)^2 of hub rate and per
+    /// tick: `ts M^-1 [0; S]`, the hub's and the modes' accelerations from `w^2 S q`; row 0 is
+    /// the hub's, row `1 + i` mode i's.
+    pub obs_s: [[f32; MAX_MODES]; 1 + MAX_MODES],
+    /// The centrifugal term's feedforward, `h' Mqq^-1 S`: `tau_ff += theta_r'^2 ff_s . q`.
+    pub ff_s: [f32; MAX_MODES],
+    /// The effective inertia Jeff = Mtt - h' Mqq^-1 h, kg m^2.
+    pub jeff: f32,
+    /// The viscous friction c_v, N m s/rad.
+    pub viscous: f32,
+    /// The torque limit, N m: the observer is fed the torque the drive could apply.
+    pub torque_limit_nm: f32,
+}
+
+fn identity(n: usize) -> Mat {
+    let mut a = ZERO;
+    for (i, row) in a.iter_mut().enumerate().take(n) {
+        row[i] = 1.0;
+    }
+    a
+}
+
+fn mul(a: &Mat, b: &Mat, n: usize) -> Mat {
+    let mut c = ZERO;
+    for i in 0..n {
+        for k in 0..n {
+            let aik = a[i][k];
+            if aik == 0.0 {
+                continue;
+            }
+            for j in 0..n {
+                c[i][j] += aik * b[k][j];
+            }
+        }
+    }
+    c
+}
+
+fn add(a: &Mat, b: &Mat, n: usize) -> Mat {
+    let mut c = *a;
+    for i in 0..n {
+        for j in 0..n {
+            c[i][j] += b[i][j];
+        }
+    }
+    c
+}
+
+fn transpose(a: &Mat, n: usize) -> Mat {
+    let mut t = ZERO;
+    for i in 0..n {
+        for j in 0..n {
+            t[j][i] = a[i][j];
+        }
+    }
+    t
+}
+
+fn norm1(a: &Mat, n: usize) -> f64 {
+    (0..n)
+        .map(|j| (0..n).map(|i| libm::fabs(a[i][j])).sum::<f64>())
+        .fold(0.0, f64::max)
+}
+
+/// Gauss-Jordan inverse with partial pivoting; `None` if singular.
+fn inverse(a: &Mat, n: usize) -> Option<Mat> {
+    let mut m = *a;
+    let mut inv = identity(n);
+    for col in 0..n {
+        let p =
+            (col..n).max_by(|&i, &j| libm::fabs(m[i][col]).total_cmp(&libm::fabs(m[j][col])))?;
+        if !(libm::fabs(m[p][col]) > 1e-300) {
+            return None;
+        }
+        m.swap(col, p);
+        inv.swap(col, p);
+        let d = 1.0 / m[col][col];
+        for j in 0..n {
+            m[col][j] *= d;
+            inv[col][j] *= d;
+        }
+        for i in 0..n {
+            if i != col {
+                let f = m[i][col];
+                if f != 0.0 {
+                    for j in 0..n {
+                        m[i][j] -= f * m[col][j];
+                        inv[i][j] -= f * inv[col][j];
+                    }
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
+/// `exp(a)` by scaling and squaring a degree-16 Taylor series.
+fn expm(a: &Mat, n: usize) -> Mat {
+    let mut squarings = 0;
+    let mut scale = 1.0;
+    while norm1(a, n) * scale > 0.5 {
+        scale *= 0.5;
+        squarings += 1;
+    }
+    let mut s = ZERO;
+    for i in 0..n {
+        for j in 0..n {
+            s[i][j] = a[i][j] * scale;
+        }
+    }
+    let mut e = identity(n);
+    let mut term = identity(n);
+    for k in 1..=16 {
+        term = mul(&term, &s, n);
+        let f = 1.0 / k as f64;
+        for row in term.iter_mut().take(n) {
+            for v in row.iter_mut().take(n) {
+                *v *= f;
+            }
+        }
+        e = add(&e, &term, n);
+    }
+    for _ in 0..squarings {
+        e = mul(&e, &e, n);
+    }
+    e
+}
+
+/// The stabilising solution of `P = A'PA - A'PG(I + HG)^-1... ` in the doubling form: for
+/// the DARE `X = A' X A - A' X B (R + B' X B)^-1 B' X A + Q`, with `g = B R^-1 B'` and
+/// `h = Q`, returns X.
+fn dare(a: &Mat, g: &Mat, h: &Mat, n: usize) -> Option<Mat> {
+    let (mut a, mut g, mut h) = (*a, *g, *h);
+    let id = identity(n);
+    for _ in 0..80 {
+        // W = (I + G H)^-1
+        let w = inverse(&add(&id, &mul(&g, &h, n), n), n)?;
+        let wa = mul(&w, &a, n);
+        let at = transpose(&a, n);
+        let a_next = mul(&a, &wa, n);
+        let g_next = add(&g, &mul(&mul(&a, &mul(&w, &g, n), n), &at, n), n);
+        let h_next = add(&h, &mul(&mul(&at, &h, n), &wa, n), n);
+        let change = norm1(&add(&h_next, &scaled(&h, -1.0, n), n), n);
+        let size = norm1(&h_next, n);
+        a = a_next;
+        g = g_next;
+        h = h_next;
+        if !size.is_finite() {
+            return None;
+        }
+        if change <= 1e-12 * size {
+            return Some(h);
+        }
+    }
+    None
+}
+
+fn scaled(a: &Mat, f: f64, n: usize) -> Mat {
+    let mut c = *a;
+    for row in c.iter_mut().take(n) {
+        for v in row.iter_mut().take(n) {
+            *v *= f;
+        }
+    }
+    c
+}
+
+impl LqgWeights {
+    fn check(&self) -> Result<(), LqgError> {
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        if pos(self.kp) && pos(self.kd) && nonneg(self.ki) && nonneg(self.kq) && pos(self.sigma_nm)
+        {
+            Ok(())
+        } else {
+            Err(LqgError::Weights)
+        }
+    }
+}
+
+/// The inverse of the whole mass matrix `[[Mtt, h'], [h, Mqq]]`.
+fn mass_inverse<const N: usize>(model: &ModalModel<N>) -> Option<Mat> {
+    let nq = 1 + N;
+    let mut m = ZERO;
+    m[0][0] = model.mtt;
+    for i in 0..N {
+        m[0][1 + i] = model.h[i];
+        m[1 + i][0] = model.h[i];
+        for j in 0..N {
+            m[1 + i][1 + j] = model.mqq[i][j];
+        }
+    }
+    inverse(&m, nq)
+}
+
+/// The sampled model `(Ad, Bd)` of `model` at a tick of `ts_s`, given `minv`, the inverse
+/// of its mass matrix.
+fn sampled_with<const N: usize>(
+    model: &ModalModel<N>,
+    minv: &Mat,
+    ts_s: f64,
+) -> Option<(Mat, [f64; D])> {
+    let nx = 2 + 2 * N;
+    let nq = 1 + N;
+    let mut k = ZERO;
+    let mut c = ZERO;
+    c[0][0] = model.beam.params().viscous_nms;
+    for i in 0..N {
+        for j in 0..N {
+            k[1 + i][1 + j] = model.kqq[i][j];
+            c[1 + i][1 + j] = model.cq[i][j];
+        }
+    }
+    let mk = mul(minv, &k, nq);
+    let mc = mul(minv, &c, nq);
+    // Van Loan: exp([[A, B], [0, 0]] ts) = [[Ad, Bd], [0, 1]].
+    let mut big = ZERO;
+    for i in 0..nq {
+        big[i][nq + i] = ts_s;
+        for j in 0..nq {
+            big[nq + i][j] = -mk[i][j] * ts_s;
+            big[nq + i][nq + j] = -mc[i][j] * ts_s;
+        }
+        big[nq + i][nx] = minv[i][0] * ts_s;
+    }
+    let e = expm(&big, nx + 1);
+    let mut ad = ZERO;
+    let mut bd = [0.0; D];
+    for i in 0..nx {
+        for j in 0..nx {
+            ad[i][j] = e[i][j];
+        }
+        bd[i] = e[i][nx];
+    }
+    Some((ad, bd))
+}
+
+/// The model reduced to its first `M` modes (the leading rows and columns of each matrix;
+/// the assumed modes are the clamped beam's, so this is the `M`-mode model of the same beam).
+/// `Mqq^-1` and `Jeff` are those of the reduced model; the pinned frequencies are left as
+/// the full model's. `None` if `M` exceeds `N` or the reduced mass matrix is singular.
+pub fn leading_modes<const N: usize, const M: usize>(
+    model: &ModalModel<N>,
+) -> Option<ModalModel<M>> {
+    if M == 0 || M > N {
+        return None;
+    }
+    let v = |a: &[f64; N]| -> [f64; M] { core::array::from_fn(|i| a[i.min(N - 1)]) };
+    let m = |a: &[[f64; N]; N]| -> [[f64; M]; M] {
+        core::array::from_fn(|i| core::array::from_fn(|j| a[i.min(N - 1)][j.min(N - 1)]))
+    };
+    let mqq = m(&model.mqq);
+    let mqq_inv = crate::linalg::spd_inverse(&mqq)?;
+    let h = v(&model.h);
+    let jeff = model.mtt - crate::linalg::quad(&h, &mqq_inv, &h);
+    Some(ModalModel {
+        beam: model.beam,
+        shapes: core::array::from_fn(|i| model.shapes[i.min(N - 1)]),
+        rho_kg_m: model.rho_kg_m,
+        mtt: model.mtt,
+        h,
+        mqq,
+        mqq_inv,
+        kqq: m(&model.kqq),
+        g: m(&model.g),
+        s: m(&model.s),
+        cq: m(&model.cq),
+        jeff,
+        clamped_hz: v(&model.clamped_hz),
+        pinned_hz: v(&model.pinned_hz),
+        root_strain_coef: v(&model.root_strain_coef),
+        mid_strain_coef: v(&model.mid_strain_coef),
+        tip_coef: v(&model.tip_coef),
+    })
+}
+
+/// Designs the observer and the state feedback for `model` sampled at `ts_s`.
+pub fn design<const N: usize>(
+    model: &ModalModel<N>,
+    weights: &LqgWeights,
+    noise: &SensorNoise,
+    ts_s: f64,
+) -> Result<LqgDesign, LqgError> {
+    weights.check()?;
+    if !(noise.theta_rad > 0.0 && noise.strain > 0.0 && ts_s > 0.0 && ts_s.is_finite()) {
+        return Err(LqgError::Weights);
+    }
+    let nx = 2 + 2 * N;
+    let minv = mass_inverse(model).ok_or(LqgError::Numerics)?;
+    let (ad, bd) = sampled_with(model, &minv, ts_s).ok_or(LqgError::Numerics)?;
+
+    // Regulator on [x; z], z the integral of the hub angle error: z+ = z + ts theta.
+    let na = nx + 1;
+    let mut aa = ad;
+    aa[nx][nx] = 1.0;
+    aa[nx][0] = ts_s;
+    let mut ba = bd;
+    ba[nx] = 0.0;
+    let mut q = ZERO;
+    q[0][0] = weights.kp * weights.kp;
+    q[1 + N][1 + N] = weights.kd * weights.kd;
+    for i in 0..N {
+        for j in 0..N {
+            // The vibration energy 1/2 (q' Kqq q + q'' Mqq q'), weighted.
+            q[1 + i][1 + j] = 0.5 * weights.kq * model.kqq[i][j];
+            q[2 + N + i][2 + N + j] = 0.5 * weights.kq * model.mqq[i][j];
+        }
+    }
+    // A small weight keeps the integral's pole off the unit circle when ki = 0.
+    q[nx][nx] = (weights.ki * weights.ki).max(1e-9);
+    let mut g = ZERO;
+    for i in 0..na {
+        for j in 0..na {
+            g[i][j] = ba[i] * ba[j]; // R = 1 (N m)^2
+        }
+    }
+    let x = dare(&aa, &g, &q, na).ok_or(LqgError::Numerics)?;
+    // K = (R + B'XB)^-1 B'XA
+    let xb: [f64; D] = core::array::from_fn(|i| (0..na).map(|j| x[i][j] * ba[j]).sum());
+    let bxb: f64 = (0..na).map(|i| ba[i] * xb[i]).sum();
+    let kfull: [f64; D] =
+        core::array::from_fn(|j| (0..na).map(|i| xb[i] * aa[i][j]).sum::<f64>() / (1.0 + bxb));
+
+    // Kalman filter: process noise through the input (sigma^2 b b') and a floor on every
+    // state; measurement noise of the sensors.
+    let e = &model.root_strain_coef;
+    let mut crow = [[0.0; D]; 2];
+    crow[0][0] = 1.0;
+    crow[1][1..=N].copy_from_slice(&e[..N]);
+    let vinv = [
+        1.0 / (noise.theta_rad * noise.theta_rad),
+        1.0 / (noise.strain * noise.strain),
+    ];
+    let mut w = ZERO;
+    let s2 = weights.sigma_nm * weights.sigma_nm;
+    for i in 0..nx {
+        for j in 0..nx {
+            w[i][j] = s2 * bd[i] * bd[j];
+        }
+        w[i][i] += 1e-6 * s2 * bd[i] * bd[i] + 1e-18;
+    }
+    let mut gk = ZERO;
+    for i in 0..nx {
+        for j in 0..nx {
+            gk[i][j] = (0..2).map(|r| crow[r][i] * vinv[r] * crow[r][j]).sum();
+        }
+    }
+    let p = dare(&transpose(&ad, nx), &gk, &w, nx).ok_or(LqgError::Numerics)?;
+    // L = P C' (C P C' + V)^-1, the current-estimate gain.
+    let pct: [[f64; 2]; D] = core::array::from_fn(|i| {
+        core::array::from_fn(|r| (0..nx).map(|j| p[i][j] * crow[r][j]).sum())
+    });
+    let mut s = [[0.0; 2]; 2];
+    for (r1, row) in s.iter_mut().enumerate() {
+        for (r2, v) in row.iter_mut().enumerate() {
+            *v = (0..nx).map(|i| crow[r1][i] * pct[i][r2]).sum::<f64>();
+        }
+        row[r1] += 1.0 / vinv[r1];
+    }
+    let det = s[0][0] * s[1][1] - s[0][1] * s[1][0];
+    if !(det.is_finite() && det != 0.0) {
+        return Err(LqgError::Numerics);
+    }
+    let sinv = [
+        [s[1][1] / det, -s[0][1] / det],
+        [-s[1][0] / det, s[0][0] / det],
+    ];
+
+    let mut out = LqgDesign {
+        states: nx,
+        ad: [[0.0; MAX_STATES]; MAX_STATES],
+        bd: [0.0; MAX_STATES],
+        strain_coef: [0.0; MAX_MODES],
+        l: [[0.0; 2]; MAX_STATES],
+        k: [0.0; MAX_STATES],
+        ki: kfull[nx] as f32,
+        ref_ad: [[0.0; 2 * MAX_MODES]; 2 * MAX_MODES],
+        ref_bd: [0.0; 2 * MAX_MODES],
+        ff_q: [0.0; MAX_MODES],
+        ff_dq: [0.0; MAX_MODES],
+        ref_s: [[0.0; MAX_MODES]; MAX_MODES],
+        obs_s: [[0.0; MAX_MODES]; 1 + MAX_MODES],
+        ff_s: [0.0; MAX_MODES],
+        jeff: model.jeff as f32,
+        viscous: model.beam.params().viscous_nms as f32,
+        torque_limit_nm: model.beam.params().torque_limit_nm as f32,
+    };
+    // From the model's layout to the fixed one.
+    let at = |i: usize| {
+        if i <= N {
+            i
+        } else {
+            i - (1 + N) + (1 + MAX_MODES)
+        }
+    };
+    for i in 0..nx {
+        for j in 0..nx {
+            out.ad[at(i)][at(j)] = ad[i][j] as f32;
+        }
+        out.bd[at(i)] = bd[i] as f32;
+        out.k[at(i)] = kfull[i] as f32;
+        for r in 0..2 {
+            out.l[at(i)][r] = (pct[i][0] * sinv[0][r] + pct[i][1] * sinv[1][r]) as f32;
+        }
+    }
+    for i in 0..N {
+        out.strain_coef[i] = e[i] as f32;
+    }
+    // The reference beam, sampled by Van Loan as above: z = [q; q'], z' = [[0, I], [-Mqq^-1
+    // Kqq, -Mqq^-1 Cq]] z + [0; -Mqq^-1 h] a.
+    let mi = &model.mqq_inv;
+    let mut big = ZERO;
+    let n2 = 2 * N;
+    for i in 0..N {
+        big[i][N + i] = ts_s;
+        for j in 0..N {
+            let (mut mk, mut mc) = (0.0, 0.0);
+            for l in 0..N {
+                mk += mi[i][l] * model.kqq[l][j];
+                mc += mi[i][l] * model.cq[l][j];
+            }
+            big[N + i][j] = -mk * ts_s;
+            big[N + i][N + j] = -mc * ts_s;
+        }
+        big[N + i][n2] = -(0..N).map(|l| mi[i][l] * model.h[l]).sum::<f64>() * ts_s;
+    }
+    let e_ref = expm(&big, n2 + 1);
+    let rat = |i: usize| if i < N { i } else { i - N + MAX_MODES };
+    for i in 0..n2 {
+        for j in 0..n2 {
+            out.ref_ad[rat(i)][rat(j)] = e_ref[i][j] as f32;
+        }
+        out.ref_bd[rat(i)] = e_ref[i][n2] as f32;
+    }
+    // h' Mqq^-1, then the feedforward rows.
+    let hm: [f64; MAX_MODES] = core::array::from_fn(|j| {
+        if j < N {
+            (0..N).map(|l| model.h[l] * mi[l][j]).sum()
+        } else {
+            0.0
+        }
+    });
+    for i in 0..N {
+        for j in 0..N {
+            out.ref_s[i][j] = ((0..N).map(|l| mi[i][l] * model.s[l][j]).sum::<f64>() * ts_s) as f32;
+        }
+    }
+    for i in 0..=N {
+        for j in 0..N {
+            out.obs_s[i][j] =
+                ((0..N).map(|l| minv[i][1 + l] * model.s[l][j]).sum::<f64>() * ts_s) as f32;
+        }
+    }
+    for j in 0..N {
+        out.ff_s[j] = (0..N).map(|l| hm[l] * model.s[l][j]).sum::<f64>() as f32;
+        out.ff_q[j] = -(0..N).map(|l| hm[l] * model.kqq[l][j]).sum::<f64>() as f32;
+        out.ff_dq[j] = -(0..N).map(|l| hm[l] * model.cq[l][j]).sum::<f64>() as f32;
+    }
+    let finite = out
+        .k
+        .iter()
+        .chain(out.l.iter().flatten())
+        .all(|v| v.is_finite());
+    if !finite || !out.ki.is_finite() {
+        return Err(LqgError::Numerics);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::beam::{Beam, BeamParams};
+
+    fn model() -> ModalModel<3> {
+        ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn the_matrix_exponential_of_a_rotation_is_a_rotation() {
+        // exp([[0, w], [-w, 0]] t) = [[cos, sin], [-sin, cos]] (w t): an independent fact.
+        let mut a = ZERO;
+        let wt = 2.3;
+        a[0][1] = wt;
+        a[1][0] = -wt;
+        let e = expm(&a, 2);
+        assert!((e[0][0] - libm::cos(wt)).abs() < 1e-12);
+        assert!((e[0][1] - libm::sin(wt)).abs() < 1e-12);
+        assert!((e[1][0] + libm::sin(wt)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_riccati_solution_of_a_scalar_system_is_the_closed_form_root() {
+        // x+ = a x + u, cost q x^2 + u^2: X = q + a^2 X / (1 + X), a quadratic in X.
+        let (a, q) = (1.2, 0.5);
+        let mut am = ZERO;
+        am[0][0] = a;
+        let mut g = ZERO;
+        g[0][0] = 1.0;
+        let mut h = ZERO;
+        h[0][0] = q;
+        let x = dare(&am, &g, &h, 1).unwrap()[0][0];
+        // X^2 + (1 - q - a^2) X - q = 0
+        let b = 1.0 - q - a * a;
+        let root = (-b + (b * b + 4.0 * q).sqrt()) / 2.0;
+        assert!((x - root).abs() < 1e-10, "{x} vs {root}");
+    }
+
+    #[test]
+    fn the_sampled_model_has_the_pinned_frequencies_and_a_rigid_mode() {
+        // Without damping or friction the eigenvalues of Ad are exp(+-j w ts) of the
+        // continuous poles: two at 1 (the rigid body) and, per mode, a pair on the unit
+        // circle at the pinned (hub-free) frequency, which the modal model finds by its own
+        // eigen-solver. So Ad's trace is 2 + sum 2 cos(w ts).
+        let m: ModalModel<3> = ModalModel::try_build(
+            &Beam::try_build(BeamParams {
+                damping_ratio: 0.0,
+                viscous_nms: 0.0,
+                ..BeamParams::aluminium()
+            })
+            .unwrap(),
+        )
+        .unwrap();
+        let ts = 1e-3;
+        let (ad, _) = sampled_with(&m, &mass_inverse(&m).unwrap(), ts).unwrap();
+        let trace: f64 = (0..8).map(|i| ad[i][i]).sum();
+        let expected: f64 = 2.0
+            + m.pinned_hz
+                .iter()
+                .map(|f| 2.0 * (2.0 * core::f64::consts::PI * f * ts).cos())
+                .sum::<f64>();
+        assert!((trace - expected).abs() < 1e-9, "{trace} vs {expected}");
+    }
+
+    #[test]
+    fn the_closed_loop_and_the_observer_are_stable() {
+        let m = model();
+        let w = LqgWeights {
+            kp: 60.0,
+            kd: 2.0,
+            ki: 200.0,
+            kq: 1e4,
+            sigma_nm: 0.5,
+        };
+        let noise = SensorNoise {
+            theta_rad: 1e-4,
+            strain: 1e-6,
+        };
+        let d = design(&m, &w, &noise, 1e-3).unwrap();
+        let nx = MAX_STATES;
+        // Iterate the closed loop (A - B K) and the observer error (I - L C) A from a unit
+        // start: both must decay.
+        let mut x = [1.0f64; MAX_STATES + 1];
+        let mut e = [1.0f64; MAX_STATES];
+        for _ in 0..20_000 {
+            let u: f64 = (0..nx).map(|j| d.k[j] as f64 * x[j]).sum::<f64>() + d.ki as f64 * x[nx];
+            let nxt: [f64; MAX_STATES + 1] = core::array::from_fn(|i| {
+                if i < nx {
+                    (0..nx).map(|j| d.ad[i][j] as f64 * x[j]).sum::<f64>() - d.bd[i] as f64 * u
+                } else if i == nx {
+                    x[nx] + 1e-3 * x[0]
+                } else {
+                    0.0
+                }
+            });
+            x = nxt;
+            let pred: [f64; MAX_STATES] =
+                core::array::from_fn(|i| (0..nx).map(|j| d.ad[i][j] as f64 * e[j]).sum::<f64>());
+            let y0 = pred[0];
+            let y1: f64 = (0..3).map(|i| d.strain_coef[i] as f64 * pred[1 + i]).sum();
+            e = core::array::from_fn(|i| pred[i] - d.l[i][0] as f64 * y0 - d.l[i][1] as f64 * y1);
+        }
+        let norm = |v: &[f64]| v.iter().map(|a| a.abs()).fold(0.0, f64::max);
+        assert!(norm(&e) < 1e-3, "observer error {:?}", e);
+        assert!(norm(&x) < 1e-3, "closed loop {:?}", x);
+    }
+}
