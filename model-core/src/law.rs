@@ -241,7 +241,7 @@ pub const LQG_MODES: usize = 2;
 
 /// The noise the LQG observer assumes on the root strain gauge, strain: a bridge amplifier's
 /// typical floor (0.5 ue), well above a 24-bit converter's quantisation.
-pub const ASSUMED_STRAIN_NOISE: f64 = 0.5e-6;
+pub const ASSUMED_STRAIN_NOISE: f64 = 1e-6;
 
 /// What a law is built on: the plant at the drive's payload ([`PlantPoint`], what a drive
 /// carries compiled in), or a whole modal model, on which the LQG law is designed too.
