@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""The settle-time comparison of docs/results.md: every law with its shipped table rows,
+moves of 15, 45, 90 and 180 deg at the planner's shortest time.
+
+Runs `beam` (the host build: target/host/beam, made by `cargo build --profile host -p
+beam-tools`) and prints a Markdown table. With --plot DIR it also writes the 180 deg
+sweep's histograms (settle time and residual strain, against PD 20/1) for lqg and pd-ff.
+Usage: docs/settle/compare.py [CASES] [--plot DIR]
+"""
+import json
+import pathlib
+import subprocess
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+BEAM = ROOT / "target" / "host" / "beam"
+LAWS = ["pd-ff", "smc", "smc-i", "smc-strain", "lqg"]
+MOVES = [15, 45, 90, 180]
+DURATION_S = 4.0
+
+
+def beam(*args):
+    out = subprocess.run([str(BEAM), *map(str, args)], check=True, capture_output=True, text=True)
+    return json.loads(out.stdout)
+
+
+def nominal(law, deg):
+    v = beam("simulate", "--controller", law, "--from", -deg / 2, "--move", deg / 2,
+             "--time", "shortest", "--duration", DURATION_S, "--json")
+    return v["settle_s"], v["move_end_s"], v["peak_torque_nm"]
+
+
+def hold(law):
+    # 0.5 N m at rest for 0.5 s, after the paper's slew has settled.
+    v = beam("simulate", "--controller", law, "--duration", 3.5, "--load-nm", 0.5,
+             "--load-at", 2.0, "--load-until", 2.5, "--json")
+    return v.get("hold_max_dev_deg")
+
+
+def spread(law, deg, cases, plot):
+    args = ["sweep", "--controller", law, "--moves", deg, "--shortest", "--cases", cases,
+            "--coulomb-max", 0.05, "--no-peer", "--duration", DURATION_S, "--json"]
+    if plot:
+        args += ["--plot", pathlib.Path(plot) / f"{law}-{deg}.png"]
+    v = beam(*args)
+    s = v["metrics"]["settle_s"] or {}
+    return s.get("p50"), s.get("p95"), v["unsettled"], v["breakdowns"], v["metrics"]["peak_torque_nm"]["max"]
+
+
+def fmt(x, unit=""):
+    return "never" if x is None else f"{x:.2f}{unit}"
+
+
+def main():
+    cases = int(sys.argv[1]) if len(sys.argv) > 1 and sys.argv[1].isdigit() else 200
+    plot = sys.argv[sys.argv.index("--plot") + 1] if "--plot" in sys.argv else None
+    print(f"| law | move | settle nominal, s | p50 / p95 over {cases} beams, s | not settled / broke down | move end T, s | peak torque nominal / max, N m | hold 0.5 N m, deg |")
+    print("|---|---|---|---|---|---|---|---|")
+    for law in LAWS:
+        held = hold(law)
+        for deg in MOVES:
+            s, t, peak = nominal(law, deg)
+            figure = plot if deg == 180 and law in ("lqg", "pd-ff") else None
+            p50, p95, never, broke, peak_max = spread(law, deg, cases, figure)
+            print(f"| {law} | {deg} deg | {fmt(s)} | {fmt(p50)} / {fmt(p95)} | {never} / {broke} | {t:.3f} | {peak:.1f} / {peak_max:.1f} | {fmt(held)} |")
+            sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
