@@ -406,8 +406,9 @@ pub fn simulate_mismatched<const N: usize>(
         theta_home_rad: opts.motion.from_rad,
         ..settings_for(nominal, &opts.sensors)
     };
+    // The planner's limits for this law (a floor on the move's time for the lqg law).
+    let limits = Limits::for_law(nominal, &law);
     let law = ControlLaw::try_build(law, nominal).map_err(|e| SimError::Config(e.into()))?;
-    let limits = Limits::for_plant(nominal);
     let controller = Controller::try_build(settings, law, opts.motion.plan(&limits)?)
         .map_err(SimError::Config)?;
     run(Plant::new(*plant), controller, opts)

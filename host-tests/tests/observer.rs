@@ -70,7 +70,8 @@ fn errors(plant: BeamParams, nominal: BeamParams) -> (f64, f64, f64) {
         ..settings_for(&n, &opts.sensors)
     };
     let law = ControlLaw::try_build(Law::Lqg(HAND_PICKED_LQG), &n).unwrap();
-    let spline = opts.motion.plan(&Limits::for_plant(&n)).unwrap();
+    let lqg = Law::Lqg(HAND_PICKED_LQG);
+    let spline = opts.motion.plan(&Limits::for_law(&n, &lqg)).unwrap();
     let reference = spline.clone();
     let controller = Controller::try_build(settings, law, spline).unwrap();
     let mut rec = Recording {

@@ -16,7 +16,7 @@
 //! where it matters, with no allocation.
 
 pub use crate::error::PlanError;
-#[cfg(doc)]
+use crate::law::Law;
 use crate::modal::ModalModel;
 use crate::plant::PlantPoint;
 use crate::shaper::{shape, Shaper, ShaperKind};
@@ -47,6 +47,11 @@ pub struct Limits {
     pub coulomb_nm: f32,
     /// Viscous friction the plan allows for, N m s/rad.
     pub viscous_nms: f32,
+    /// Shortest segment the planner chooses when it picks the times, s (0, a negative value
+    /// or NaN: none; `f64::max` passes over NaN). For a law
+    /// that bends a reference beam through the move ([`Law::min_move_periods`]), a move
+    /// much shorter than the beam's first period asks for more torque than the limit.
+    pub min_segment_s: f32,
 }
 
 impl Limits {
@@ -71,6 +76,23 @@ impl Limits {
             inertia_kgm2: p.mtt as f32,
             coulomb_nm: p.coulomb_nm as f32,
             viscous_nms: p.viscous_nms as f32,
+            min_segment_s: 0.0,
+        }
+    }
+
+    /// [`Limits::for_plant`] with the shortest segment `law` asks for on that model: its
+    /// [`Law::min_move_periods`] of the first clamped period. (On a modal model: a drive's
+    /// compiled plant does not carry the frequency, and its laws ask for no floor.)
+    pub fn for_law<const N: usize>(model: &ModalModel<N>, law: &Law) -> Self {
+        let periods = law.min_move_periods() as f64;
+        let hz = model.clamped_hz.first().copied().unwrap_or(0.0);
+        Self {
+            min_segment_s: if periods > 0.0 && hz > 0.0 {
+                (periods / hz) as f32
+            } else {
+                0.0
+            },
+            ..Self::for_plant(model)
         }
     }
 
@@ -270,8 +292,11 @@ pub fn plan_through(
     // which averages them): a spline that overshoots the range between waypoints does so
     // at any speed.
     out_of_range(&trial, limits)?;
-    // ... and no segment may be shorter than a tick.
-    let least = limits.least_scale(&trial).max(MIN_SEGMENT_S / min_gap);
+    // ... and no segment may be shorter than a tick, nor, at the shortest time, than the
+    // limits' shortest segment.
+    let least = limits
+        .least_scale(&trial)
+        .max(MIN_SEGMENT_S.max(limits.min_segment_s as f64) / min_gap);
     // The shortest whole-millisecond end time at or above the least scale that passes the
     // check (f32 rounding can cost a millisecond).
     let shortest = || -> Result<(f64, Plan), PlanError> {
@@ -317,7 +342,10 @@ fn rest_to_rest_time(limits: &Limits, distance: f64) -> f64 {
         max_abs_vel: (1.875 * d) as f32,
         max_abs_acc: (10.0 / libm::sqrt(3.0) * d) as f32,
     };
-    limits.least_scale(&unit).max(10.0 * MIN_SEGMENT_S)
+    limits
+        .least_scale(&unit)
+        .max(10.0 * MIN_SEGMENT_S)
+        .max(limits.min_segment_s as f64)
 }
 
 /// Refuses a move whose reference leaves the range.
@@ -403,6 +431,50 @@ mod tests {
     }
 
     const DEG: f32 = core::f32::consts::PI / 180.0;
+
+    #[test]
+    fn a_law_that_bends_a_reference_beam_gets_a_floor_on_the_shortest_move() {
+        // lqg asks for 0.66 of the first clamped period (5.48 Hz on the aluminium beam); the
+        // other laws for none. A 15 deg move's torque-limited time is far below that floor,
+        // and with it the shortest plan lasts the floor (to the millisecond).
+        let m: ModalModel<3> =
+            ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
+        let lqg = Law::Lqg(crate::law::LqgGains {
+            kp: 1.0,
+            kd: 1.0,
+            ki: 0.0,
+            kq: 0.0,
+            sigma: 1.0,
+        });
+        let smc = Law::Pd(crate::law::PdGains::BASELINE);
+        assert_eq!(Limits::for_law(&m, &smc), limits());
+        let floored = Limits::for_law(&m, &lqg);
+        let floor = 0.66 / m.clamped_hz[0];
+        assert!(
+            (floored.min_segment_s as f64 - floor).abs() < 1e-6,
+            "{floored:?}"
+        );
+        let time = |l: &Limits| {
+            plan_move(0.0, 15.0 * DEG, None, &Shaper::NONE, l)
+                .unwrap()
+                .shaped
+                .duration_s() as f64
+        };
+        assert!(time(&limits()) < 0.1);
+        let t = time(&floored);
+        assert!(
+            t >= floor && t < floor + 0.002,
+            "{t} s against a floor of {floor} s"
+        );
+        // A longer move is past the floor already and keeps its torque-limited time.
+        let long = |l: &Limits| {
+            plan_move(-90.0 * DEG, 90.0 * DEG, None, &Shaper::NONE, l)
+                .unwrap()
+                .shaped
+                .duration_s()
+        };
+        assert_eq!(long(&floored), long(&limits()));
+    }
 
     #[test]
     fn the_shortest_quintic_uses_the_torque_budget_as_the_closed_form_says() {
