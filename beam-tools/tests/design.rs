@@ -30,6 +30,7 @@ fn spec(m: &ModalModel<3>, seed: u64) -> Spec {
         local_evals: 40,
         seed,
         warm_start: None,
+        objective: beam_tools::design::optimize::Objective::Cost,
         load_hold: None,
         motion: host_tests::sim::Motion::default(),
         scenarios: vec![],
@@ -164,6 +165,57 @@ fn every_row_and_every_payload_between_rows_is_quiet_after_ten_seconds() {
         }
     }
     assert!(failed.is_empty(), "{failed:#?}");
+}
+
+#[test]
+fn the_settle_objective_scores_the_settle_time_and_does_not_lose_its_start() {
+    use beam_tools::design::optimize::{Objective, SETTLE_RUN_S};
+    use host_tests::metrics::{metrics_with, SettleSpec};
+    let m = model(0.0);
+    let start = host_tests::sim::HAND_PICKED_LQG;
+    let x0 = [start.kp, start.kd, start.ki, start.kq, start.sigma].map(|v| v as f64);
+    // The paper's slew with the shipped lqg row's shaper (unshaped, the law saturates).
+    let motion = host_tests::sim::Motion {
+        shaper: model_core::gains::schedule_shaper(GAIN_TABLE, LawKind::Lqg, 0.0),
+        ..Default::default()
+    };
+    let s = Spec {
+        motion,
+        kind: LawKind::Lqg,
+        params: default_params(LawKind::Lqg, &m),
+        objective: Objective::Settle(SettleSpec::default()),
+        max_err_deg_0_6: None,
+        hold: None,
+        samples: 8,
+        local_evals: 12,
+        warm_start: Some(x0.to_vec()),
+        ..spec(&m, 3)
+    };
+    // The score of a gain set is the settle time of its run, as the metrics compute it.
+    let start_eval = evaluate(&m, &s, &x0);
+    let run = simulate(
+        &m,
+        Law::Lqg(start),
+        &SimOptions {
+            duration_s: SETTLE_RUN_S,
+            motion,
+            sensors: host_tests::sensors::SensorConfig {
+                seed: s.seed,
+                ..Default::default()
+            },
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let settle = metrics_with(&run, &SettleSpec::default()).settle_s.unwrap();
+    assert_eq!(start_eval.cost, settle);
+    assert!(start_eval.feasible(), "{start_eval:?}");
+    // A search that starts there ends no worse.
+    let best = optimize(&m, &s, &|_, _| {}).best;
+    assert!(
+        best.feasible() && best.cost <= settle,
+        "{best:?} against {settle} s"
+    );
 }
 
 #[test]

@@ -318,8 +318,11 @@ impl<const N: usize> LawPlant for &ModalModel<N> {
         if !cfg!(feature = "observer") {
             return None;
         }
-        let first = lqg::leading_modes::<N, LQG_MODES>(self)?;
-        Some(lqg::design(&first, &weights, &noise, ts_s))
+        // A model with fewer modes is designed on as it is.
+        Some(match lqg::leading_modes::<N, LQG_MODES>(self) {
+            Some(leading) => lqg::design(&leading, &weights, &noise, ts_s),
+            None => lqg::design(*self, &weights, &noise, ts_s),
+        })
     }
 }
 
@@ -673,7 +676,8 @@ impl ControlLaw {
         }
         // Once the reference is at rest the reference beam is too: whatever it would still
         // ring with (a shaper's residual, a mode it was not tuned for) is the feedback's to
-        // damp, not to follow.
+        // damp, not to follow. (A move through waypoints that stops at one for a tick resets
+        // it there too; the law cannot tell that pause from the end.)
         state.reference = if r.vel == 0.0 && r.acc == 0.0 {
             [0.0; 2 * MAX_MODES]
         } else {

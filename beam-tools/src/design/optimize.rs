@@ -11,7 +11,7 @@
 //! is not running the designed law), no validity-guard breakdown, no latched fault, and,
 //! optionally, the hub within a given angle of the target at 0.6 s.
 
-use host_tests::metrics::{cost, metrics, CostSpec, Metrics};
+use host_tests::metrics::{cost, metrics, metrics_with, CostSpec, Metrics, SettleSpec};
 use host_tests::sim::Motion;
 use host_tests::sim::{simulate, simulate_mismatched, SimError, SimOptions, SimResult};
 use model_core::{
@@ -223,7 +223,28 @@ pub struct Spec {
     /// payload's row: rows found from a common start stay in one region of gain space, so
     /// interpolating between them stays meaningful.
     pub warm_start: Option<Vec<f64>>,
+    /// What is minimised: J (`cost`), or the settle time from the move command.
+    pub objective: Objective,
 }
+
+/// What the optimiser minimises.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Objective {
+    /// The paper's J, on windows from the move's end.
+    Cost,
+    /// The settle time from the move command (hub and strain bands), on a run of
+    /// [`SETTLE_RUN_S`] without the load test (which, when asked for, runs separately); a
+    /// run that has not settled by its end scores twice its length. Constraint: the torque's
+    /// RMS over the run's last 0.5 s at most [`QUIET_TORQUE_RMS_NM`].
+    Settle(SettleSpec),
+}
+
+/// How long a settle-time evaluation simulates, s.
+pub const SETTLE_RUN_S: f64 = 3.0;
+
+/// Largest torque RMS at rest a settle-time design may leave, N m (the bound of the shipped
+/// rows' quiet test).
+pub const QUIET_TORQUE_RMS_NM: f64 = 0.5;
 
 /// One evaluated gain set.
 #[derive(Clone, Debug, PartialEq)]
@@ -379,18 +400,7 @@ fn evaluate_robust<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]
                 motion.shaper.freq_hz = searched.freq_hz;
                 motion.shaper.damping = searched.damping;
             }
-            let opts = SimOptions {
-                duration_s: eval_duration(spec),
-                motion,
-                fault: spec.load_hold.map(|h| h.injection()),
-                sensors: host_tests::sensors::SensorConfig {
-                    seed: spec.seed,
-                    ..Default::default()
-                },
-                ..SimOptions::default()
-            };
-            let run = simulate_mismatched(&plant, model, law, &opts).ok()?;
-            score(&plant, spec, x, law, &run)
+            run_case(&plant, model, spec, x, law, motion)
         })
         .collect();
     let infeasible = Evaluation {
@@ -425,9 +435,29 @@ fn evaluate_robust<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]
 /// Runs the closed loop for gains `x` on the nominal plant and scores it.
 fn evaluate_nominal<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
     let law = law_of(spec, x);
+    run_case(model, model, spec, x, law, motion_for(spec, x)).unwrap_or_else(|| Evaluation {
+        gains: x.to_vec(),
+        law,
+        cost: f64::INFINITY,
+        angle_term: f64::INFINITY,
+        strain_term: f64::INFINITY,
+        violation: 1e3,
+    })
+}
+
+/// One case: `law` designed on `nominal` against `plant` over `motion`, scored by the spec's
+/// objective; `None` when a run breaks down, faults or cannot start.
+fn run_case<const N: usize>(
+    plant: &ModalModel<N>,
+    nominal: &ModalModel<N>,
+    spec: &Spec,
+    x: &[f64],
+    law: Law,
+    motion: Motion,
+) -> Option<Evaluation> {
     let opts = SimOptions {
         duration_s: eval_duration(spec),
-        motion: motion_for(spec, x),
+        motion,
         fault: spec.load_hold.map(|h| h.injection()),
         sensors: host_tests::sensors::SensorConfig {
             seed: spec.seed,
@@ -435,27 +465,53 @@ fn evaluate_nominal<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64
         },
         ..SimOptions::default()
     };
-    let infeasible = |violation| Evaluation {
-        gains: x.to_vec(),
-        law,
-        cost: f64::INFINITY,
-        angle_term: f64::INFINITY,
-        strain_term: f64::INFINITY,
-        violation,
-    };
-    let run = match simulate(model, law, &opts) {
-        Ok(run) => run,
-        Err(_) => return infeasible(1e3),
-    };
-    score(model, spec, x, law, &run).unwrap_or_else(|| infeasible(1e3))
+    match spec.objective {
+        Objective::Cost => {
+            let run = simulate_mismatched(plant, nominal, law, &opts).ok()?;
+            score(plant, spec, x, law, &run, true)
+        }
+        Objective::Settle(bands) => {
+            // The move alone, long enough to settle; the load test on its own run.
+            let quiet = SimOptions {
+                duration_s: SETTLE_RUN_S.max(opts.duration_s),
+                fault: None,
+                ..opts
+            };
+            let run = simulate_mismatched(plant, nominal, law, &quiet).ok()?;
+            let mut e = score(plant, spec, x, law, &run, false)?;
+            if let Some(h) = spec.load_hold {
+                let loaded = simulate_mismatched(plant, nominal, law, &opts).ok()?;
+                if loaded.breakdown.is_some() || !loaded.faults.is_empty() {
+                    return None;
+                }
+                e.violation = e.violation.max(h.violation(&metrics(&loaded)));
+            }
+            // Quiet at rest as well as settled: the torque's RMS over the run's last half
+            // second at most QUIET_TORQUE_RMS_NM (an observer that trusts its sensors too
+            // much settles fast and then hums).
+            let tail: Vec<f64> = run
+                .samples
+                .iter()
+                .filter(|s| s.t >= quiet.duration_s - 0.5)
+                .map(|s| s.torque * s.torque)
+                .collect();
+            let rms = (tail.iter().sum::<f64>() / tail.len().max(1) as f64).sqrt();
+            e.violation = e.violation.max(rms / QUIET_TORQUE_RMS_NM - 1.0);
+            let settle = metrics_with(&run, &bands).settle_s;
+            e.cost = settle.unwrap_or(2.0 * quiet.duration_s);
+            Some(e)
+        }
+    }
 }
 
+/// J and the constraints of one run; the load test only if `with_load` (the run carried it).
 fn score<const N: usize>(
     model: &ModalModel<N>,
     spec: &Spec,
     x: &[f64],
     law: Law,
     run: &SimResult,
+    with_load: bool,
 ) -> Option<Evaluation> {
     if run.breakdown.is_some() || !run.faults.is_empty() {
         return None;
@@ -479,7 +535,7 @@ fn score<const N: usize>(
     if let Some((t, max_err)) = spec.hold {
         violation = violation.max(err_at(t + dt)? / max_err - 1.0);
     }
-    if let Some(h) = spec.load_hold {
+    if let Some(h) = spec.load_hold.filter(|_| with_load) {
         violation = violation.max(h.violation(&metrics(run)));
     }
     let windows = spec.cost.shifted(dt);
