@@ -6,8 +6,14 @@
 //! drive is configured, not in the tick: the result is validated by `ControlLaw::try_build`
 //! and swapped in whole.
 
-use crate::law::{Law, LawKind, LqgGains, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains};
+use crate::law::{
+    Law, LawKind, LawPlant, LqgGains, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains,
+    ASSUMED_STRAIN_NOISE, LQG_MODES,
+};
+use crate::modal::ModalModel;
+use crate::plant::PlantPoint;
 use crate::shaper::Shaper;
+use beam_model::lqg::{self, LqgDesign, LqgError, LqgWeights, SensorNoise};
 
 /// One row of the table: the gains for one controller at one payload.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,6 +45,42 @@ pub struct DriveConfig {
 }
 
 include!(concat!(env!("OUT_DIR"), "/gain_table.rs"));
+
+/// The LQG law is designed on a whole modal model, with the compiled [`DRIVE`]'s instruments
+/// as the observer's sensor noise: the encoder's quantisation (step / sqrt(12)) and the root
+/// gauge's, at least [`ASSUMED_STRAIN_NOISE`].
+impl<const N: usize> LawPlant for &ModalModel<N> {
+    fn point(&self) -> PlantPoint {
+        PlantPoint::of(self)
+    }
+
+    fn lqg(&self, g: &LqgGains, ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
+        if !cfg!(feature = "observer") {
+            return None;
+        }
+        let weights = LqgWeights {
+            kp: g.kp as f64,
+            kd: g.kd as f64,
+            ki: g.ki as f64,
+            kq: g.kq as f64,
+            sigma_nm: g.sigma as f64,
+        };
+        let quantum = |step: f64| step / libm::sqrt(12.0);
+        let noise = SensorNoise {
+            theta_rad: quantum(DRIVE.encoder.rad_per_count()),
+            strain: quantum(DRIVE.adc.strain_per_code()).max(ASSUMED_STRAIN_NOISE),
+        };
+        // On the first LQG_MODES modes: a controller that also observes the higher modes
+        // tracks them on the model's frequencies, and a beam a few percent off those turns
+        // them unstable (spillover; with 1 % damping there is no margin to spare). Left out,
+        // they see a gain that has rolled off by their frequencies. A model with fewer modes
+        // is designed on as it is.
+        Some(match lqg::leading_modes::<N, LQG_MODES>(self) {
+            Some(leading) => lqg::design(&leading, &weights, &noise, ts_s),
+            None => lqg::design(*self, &weights, &noise, ts_s),
+        })
+    }
+}
 
 /// The gains for law `kind` at `payload_kg`, from `table`; `None` if the table has no row for
 /// that law. A NaN payload takes the lightest row.

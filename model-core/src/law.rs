@@ -6,13 +6,15 @@
 //! per-tick [`ControlLaw::torque_nm`] is a handful of multiply-adds and one `tanhf`.
 
 use crate::beam::{ParamError, ParamErrorKind};
-use crate::modal::{ModalModel, MAX_MODES};
+#[cfg(doc)]
+use crate::modal::ModalModel;
+use crate::modal::MAX_MODES;
 use crate::plant::PlantPoint;
 use crate::spline::RefPoint;
 use beam_kinds::GainRule;
 #[cfg(feature = "observer")]
 use beam_model::lqg::MAX_STATES;
-use beam_model::lqg::{self, LqgDesign, LqgError, LqgWeights, SensorNoise};
+use beam_model::lqg::{LqgDesign, LqgError};
 
 pub use beam_kinds::{GainSpec, LawKind, Search, Sign, Switching};
 
@@ -262,15 +264,10 @@ pub const ASSUMED_STRAIN_NOISE: f64 = 1e-6;
 pub trait LawPlant {
     /// The plant's numbers the laws read.
     fn point(&self) -> PlantPoint;
-    /// The LQG design for `gains` on this plant, sampled at `ts_s`, with the sensor noise
-    /// of `encoder` and `adc`; `None` if this plant cannot design one (a [`PlantPoint`]).
-    fn lqg(
-        &self,
-        _gains: &LqgGains,
-        _encoder: &crate::measure::EncoderSpec,
-        _adc: &crate::measure::AdcSpec,
-        _ts_s: f64,
-    ) -> Option<Result<LqgDesign, LqgError>> {
+    /// The LQG design for `gains` on this plant, sampled at `ts_s`; `None` if this plant
+    /// cannot design one (a [`PlantPoint`]). A [`ModalModel`] designs it with the compiled
+    /// `[drive]`'s instruments as the sensor noise (in `crate::gains`, which knows them).
+    fn lqg(&self, _gains: &LqgGains, _ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
         None
     }
 }
@@ -284,45 +281,6 @@ impl LawPlant for PlantPoint {
 impl LawPlant for &PlantPoint {
     fn point(&self) -> PlantPoint {
         **self
-    }
-}
-
-impl<const N: usize> LawPlant for &ModalModel<N> {
-    fn point(&self) -> PlantPoint {
-        PlantPoint::of(self)
-    }
-
-    fn lqg(
-        &self,
-        g: &LqgGains,
-        encoder: &crate::measure::EncoderSpec,
-        adc: &crate::measure::AdcSpec,
-        ts_s: f64,
-    ) -> Option<Result<LqgDesign, LqgError>> {
-        let weights = LqgWeights {
-            kp: g.kp as f64,
-            kd: g.kd as f64,
-            ki: g.ki as f64,
-            kq: g.kq as f64,
-            sigma_nm: g.sigma as f64,
-        };
-        let quantum = |step: f64| step / libm::sqrt(12.0);
-        let noise = SensorNoise {
-            theta_rad: quantum(encoder.rad_per_count()),
-            strain: quantum(adc.strain_per_code()).max(ASSUMED_STRAIN_NOISE),
-        };
-        // On the first mode only: a controller that also observes the higher modes tracks
-        // them on the model's frequencies, and a beam a few percent off those turns them
-        // unstable (spillover; with 1 % damping there is no margin to spare). Left out, they
-        // see a gain that has rolled off by their frequencies.
-        if !cfg!(feature = "observer") {
-            return None;
-        }
-        // A model with fewer modes is designed on as it is.
-        Some(match lqg::leading_modes::<N, LQG_MODES>(self) {
-            Some(leading) => lqg::design(&leading, &weights, &noise, ts_s),
-            None => lqg::design(*self, &weights, &noise, ts_s),
-        })
     }
 }
 
@@ -447,9 +405,8 @@ impl ControlLaw {
     /// The LQG law's design on `plant` (see [`ControlLaw::try_build`]).
     #[cfg(feature = "observer")]
     fn lqg_law(plain: Self, g: &LqgGains, plant: &impl LawPlant) -> Result<Self, ParamError> {
-        let drive = &crate::gains::DRIVE;
         let design = plant
-            .lqg(g, &drive.encoder, &drive.adc, crate::DEFAULT_TS_S as f64)
+            .lqg(g, crate::DEFAULT_TS_S as f64)
             .ok_or(ParamError {
                 field: "lqg",
                 kind: ParamErrorKind::NeedsModel,
