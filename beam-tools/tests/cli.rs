@@ -974,3 +974,53 @@ fn calibrate_fits_several_logs_at_once_and_reports_each() {
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).contains("torque taken to read true"));
 }
+
+#[test]
+fn calibrate_json_carries_its_warnings_and_prints_them_on_stderr() {
+    // One logged move cannot tell the hub's inertia from the beam's density (both make up
+    // the rigid inertia the move mostly shows): the warning must reach a user of --json.
+    let dir = scratch("calibrate-warnings");
+    let log = dir.join("log.csv");
+    let sim = beam(&[
+        "simulate",
+        "--controller",
+        "pd",
+        "--duration",
+        "2",
+        "--csv",
+        log.to_str().unwrap(),
+    ]);
+    assert!(sim.status.success());
+    let out = beam(&[
+        "calibrate",
+        log.to_str().unwrap(),
+        "--method",
+        "split",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = json(&out);
+    let warnings: Vec<&str> = v["warnings"]
+        .as_array()
+        .expect("a `warnings` array")
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("jm_kgm2") && w.contains("density_kg_m3")),
+        "{warnings:?}"
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    for w in &warnings {
+        assert!(
+            stderr.contains(&format!("warning: {w}")),
+            "{w} not on stderr"
+        );
+    }
+}

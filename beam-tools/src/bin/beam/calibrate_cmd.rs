@@ -266,11 +266,17 @@ fn print_json(
         })
         .collect();
     let spread = found.spread.as_ref();
+    // Warnings go to stderr as well, so a script that keeps only stdout still shows them.
+    let warnings = warnings(found);
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     println!(
         "{}",
         json!({"method": a.method, "split": found.split, "steps": steps, "identified": fm, "guess": gm, "logs": logs,
                "uncertainty": spread.map(|s| &s.0),
-               "tradeoffs": spread.map(|s| &s.1)})
+               "tradeoffs": spread.map(|s| &s.1),
+               "warnings": warnings})
     );
 }
 
@@ -372,54 +378,76 @@ fn print_split(s: &SplitReport) {
 /// The intervals, and the warnings about parameters the logs do not pin down.
 fn print_spread(found: &Found) {
     let split = &found.split;
+    if let Some((errs, _)) = &found.spread {
+        let parts: Vec<String> = errs
+            .iter()
+            .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
+            .collect();
+        let how = if split.is_some() {
+            let [lo, hi] = beam_tools::identify::split::WINDOW_FACTORS;
+            format!("one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over {lo:.1} or {hi:.1} times the width, and from quantising its angle again at other phases of the encoder's step)")
+        } else {
+            "one-sigma (noise only, near the result)".into()
+        };
+        println!("  {how}: {}", parts.join(", "));
+    }
+    for w in warnings(found) {
+        println!("  warning: {w}");
+    }
+}
+
+/// What a user should know about the result, one sentence each: parameters the logs do not
+/// tell apart or do not pin down, a model that does not explain the torque, and where the
+/// hub's smoothing or the encoder limit a parameter more than the noise. Printed with the
+/// text report, and with `--json` both on stderr and as the JSON's `warnings`.
+fn warnings(found: &Found) -> Vec<String> {
+    let mut out = vec![];
+    let split = &found.split;
     let [lo, hi] = beam_tools::identify::split::WINDOW_FACTORS;
     let smoothing = format!("{lo:.1} or {hi:.1} times the width");
     match &found.spread {
         Some((errs, trades)) => {
-            let parts: Vec<String> = errs
-                .iter()
-                .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
-                .collect();
-            let how = if split.is_some() {
-                format!("one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over {smoothing}, and from quantising its angle again at other phases of the encoder's step)")
-            } else {
-                "one-sigma (noise only, near the result)".into()
-            };
-            println!("  {how}: {}", parts.join(", "));
             for t in trades {
-                println!(
-                    "  warning: {} and {} trade against each other (correlation {:.3}); the logs do not tell them apart",
+                out.push(format!(
+                    "{} and {} trade against each other (correlation {:.3}); the logs do not tell them apart",
                     t.a, t.b, t.correlation
-                );
+                ));
+            }
+            for u in errs.iter().filter(|u| u.std_err > u.value.abs()) {
+                out.push(format!(
+                    "{}'s interval ({:.1e}) is wider than its value ({:.4e}): the logs do not pin it down",
+                    u.name, u.std_err, u.value
+                ));
             }
         }
-        None => println!("  warning: a parameter has no effect on these logs; no uncertainties"),
+        None => out.push("a parameter has no effect on these logs; no uncertainties".into()),
     }
     if let Some(s) = split.as_ref().filter(|s| s.replay_drifts()) {
-        println!(
-            "  warning: the found model, driven open loop by the logged torque, drifts {:.1} deg RMS from the logged angle, {:.0} % of the move: it does not explain the torque; check the starting parameters (each log's tip mass, the gauge's position) against the rig",
+        out.push(format!(
+            "the found model, driven open loop by the logged torque, drifts {:.1} deg RMS from the logged angle, {:.0} % of the move: it does not explain the torque; check the starting parameters (each log's tip mass, the gauge's position) against the rig",
             s.replay_rms_theta_err_rad.to_degrees(),
             100.0 * s.replay_rms_theta_err_rad / s.move_span_rad
-        );
+        ));
     }
     for w in split.iter().flat_map(|s| &s.window_shift) {
         if w.shift > beam_tools::identify::split::WINDOW_WARNING * w.noise {
-            println!(
-                "  warning: {} moves {:.1e} when the prescribed hub is smoothed over {smoothing}, {:.0} times its noise: how the hub's fast motion is modelled limits it on these logs more than their noise (its interval counts the shift)",
+            out.push(format!(
+                "{} moves {:.1e} when the prescribed hub is smoothed over {smoothing}, {:.0} times its noise: how the hub's fast motion is modelled limits it on these logs more than their noise (its interval counts the shift)",
                 w.name,
                 w.shift,
                 w.shift / w.noise
-            );
+            ));
         }
         if w.encoder > beam_tools::identify::split::WINDOW_WARNING * w.noise {
-            println!(
-                "  warning: {} moves {:.1e} RMS when the logged angle is quantised again at other phases of its encoder's step, {:.0} times its noise: the encoder's resolution limits it on these logs more than their noise (its interval counts the shift)",
+            out.push(format!(
+                "{} moves {:.1e} RMS when the logged angle is quantised again at other phases of its encoder's step, {:.0} times its noise: the encoder's resolution limits it on these logs more than their noise (its interval counts the shift)",
                 w.name,
                 w.encoder,
                 w.encoder / w.noise
-            );
+            ));
         }
     }
+    out
 }
 
 fn print_step(s: &StepReport) {
