@@ -78,8 +78,6 @@ pub enum LqgError {
 /// `2 + MAX_MODES + i` mode i's rate; entries of modes past the model's are zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LqgDesign {
-    /// Number of states in use, `2 + 2 n`.
-    pub states: usize,
     /// The sampled state matrix.
     pub ad: [[f32; MAX_STATES]; MAX_STATES],
     /// The sampled input column, per N m.
@@ -478,7 +476,6 @@ pub fn design<const N: usize>(
     ];
 
     let mut out = LqgDesign {
-        states: nx,
         ad: [[0.0; MAX_STATES]; MAX_STATES],
         bd: [0.0; MAX_STATES],
         strain_coef: [0.0; MAX_MODES],

@@ -106,12 +106,14 @@ impl CommandedRun {
             .iter()
             .filter(|k| k.t >= from - 1e-9 && k.t < until - 1e-9)
             .collect();
-        let ok = |k: &Tick| (k.theta - target_rad).abs() <= hub && k.root_strain.abs() <= strain;
-        match window.iter().rposition(|k| !ok(k)) {
-            None => window.first().map(|_| 0.0),
-            Some(i) if i + 1 < window.len() => Some(((window[i + 1].t - from) * 1e6).round() / 1e6),
-            Some(_) => None,
+        if window.is_empty() {
+            return None;
         }
+        crate::metrics::settled_from(
+            &window,
+            |k| k.t - from,
+            |k| (k.theta - target_rad).abs() <= hub && k.root_strain.abs() <= strain,
+        )
     }
 
     /// RMS true root strain over `[from, to]`, microstrain.

@@ -154,12 +154,17 @@ pub fn metrics(run: &SimResult) -> Metrics {
     metrics_with(run, &SettleSpec::default())
 }
 
-/// The first time from which every later sample satisfies `ok`, rounded to the microsecond
-/// (tick times are decimals); `Some(0.0)` if all do, `None` if the last does not.
-fn settled_from(s: &[crate::sim::Sample], ok: impl Fn(&crate::sim::Sample) -> bool) -> Option<f64> {
-    match s.iter().rposition(|x| !ok(x)) {
+/// The time (`time` of the item, rounded to the microsecond: tick times are decimals) of
+/// the first of `items` from which every later one satisfies `ok`; `Some(0.0)` if all do,
+/// `None` if the last does not. The settle times here and of a commanded run's moves.
+pub fn settled_from<T>(
+    items: &[T],
+    time: impl Fn(&T) -> f64,
+    ok: impl Fn(&T) -> bool,
+) -> Option<f64> {
+    match items.iter().rposition(|x| !ok(x)) {
         None => Some(0.0),
-        Some(k) if k + 1 < s.len() => Some((s[k + 1].t * 1e6).round() / 1e6),
+        Some(k) if k + 1 < items.len() => Some((time(&items[k + 1]) * 1e6).round() / 1e6),
         Some(_) => None,
     }
 }
@@ -212,11 +217,17 @@ pub fn metrics_with(run: &SimResult, settle: &SettleSpec) -> Metrics {
         }
     };
     let tip_band = TIP_BAND_DEG.to_radians();
-    let tip_settle = settled_from(s, |x| (x.tip_angle - run.theta_final).abs() <= tip_band);
+    let tip_settle = settled_from(
+        s,
+        |x| x.t,
+        |x| (x.tip_angle - run.theta_final).abs() <= tip_band,
+    );
     let (hub_band, strain_band) = (settle.hub_deg.to_radians(), settle.strain_ue / UE);
-    let settle_s = settled_from(s, |x| {
-        (x.theta - run.theta_final).abs() <= hub_band && x.root_strain.abs() <= strain_band
-    });
+    let settle_s = settled_from(
+        s,
+        |x| x.t,
+        |x| (x.theta - run.theta_final).abs() <= hub_band && x.root_strain.abs() <= strain_band,
+    );
     let rms_over = |a: f64, b: f64| {
         let v: Vec<f64> = in_window(a, b).map(|x| x.root_strain * UE).collect();
         (end >= b - 1e-9 && !v.is_empty())

@@ -278,12 +278,6 @@ impl LawPlant for PlantPoint {
     }
 }
 
-impl LawPlant for &PlantPoint {
-    fn point(&self) -> PlantPoint {
-        **self
-    }
-}
-
 /// gamma = e' Mqq^-1 h, how much a hub acceleration shows in the root strain of the held
 /// beam: the blended output y = theta + c eps_root has the input gain (1 - c gamma) / Jeff.
 pub fn strain_coupling(plant: impl Into<PlantPoint>) -> f64 {
@@ -320,7 +314,6 @@ pub struct ControlLaw {
 /// An all-zero design, for the laws without an observer.
 #[cfg(feature = "observer")]
 const NO_OBSERVER: LqgDesign = LqgDesign {
-    states: 0,
     ad: [[0.0; MAX_STATES]; MAX_STATES],
     bd: [0.0; MAX_STATES],
     strain_coef: [0.0; MAX_MODES],

@@ -264,6 +264,19 @@ pub struct Evaluation {
 }
 
 impl Evaluation {
+    /// Gains `x` whose run broke down, faulted or could not start: infinitely costly and far
+    /// outside the constraints.
+    fn failed(x: &[f64], law: Law) -> Self {
+        Self {
+            gains: x.to_vec(),
+            law,
+            cost: f64::INFINITY,
+            angle_term: f64::INFINITY,
+            strain_term: f64::INFINITY,
+            violation: 1e3,
+        }
+    }
+
     /// True when every constraint holds.
     pub fn feasible(&self) -> bool {
         self.violation <= 0.0 && self.cost.is_finite()
@@ -403,16 +416,8 @@ fn evaluate_robust<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]
             run_case(&plant, model, spec, x, law, motion)
         })
         .collect();
-    let infeasible = Evaluation {
-        gains: x.to_vec(),
-        law,
-        cost: f64::INFINITY,
-        angle_term: f64::INFINITY,
-        strain_term: f64::INFINITY,
-        violation: 1e3,
-    };
     let Some(runs) = runs.into_iter().collect::<Option<Vec<Evaluation>>>() else {
-        return infeasible;
+        return Evaluation::failed(x, law);
     };
     let q = |f: fn(&Evaluation) -> f64| {
         quantile(&mut runs.iter().map(f).collect::<Vec<_>>(), spec.quantile)
@@ -435,14 +440,8 @@ fn evaluate_robust<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]
 /// Runs the closed loop for gains `x` on the nominal plant and scores it.
 fn evaluate_nominal<const N: usize>(model: &ModalModel<N>, spec: &Spec, x: &[f64]) -> Evaluation {
     let law = law_of(spec, x);
-    run_case(model, model, spec, x, law, motion_for(spec, x)).unwrap_or_else(|| Evaluation {
-        gains: x.to_vec(),
-        law,
-        cost: f64::INFINITY,
-        angle_term: f64::INFINITY,
-        strain_term: f64::INFINITY,
-        violation: 1e3,
-    })
+    run_case(model, model, spec, x, law, motion_for(spec, x))
+        .unwrap_or_else(|| Evaluation::failed(x, law))
 }
 
 /// One case: `law` designed on `nominal` against `plant` over `motion`, scored by the spec's
