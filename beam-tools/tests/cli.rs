@@ -347,7 +347,14 @@ fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
         (&["calibrate", "x.csv", "--columns", "t=x:hours"], "hours"),
         (&["calibrate", "x.csv", "--windows", "0.1,0.2"], "--windows"),
         (
-            &["calibrate", "x.csv", "--known-density", "7850"],
+            &[
+                "calibrate",
+                "x.csv",
+                "--method",
+                "paper",
+                "--known-density",
+                "7850",
+            ],
             "--method split",
         ),
         (&["replay", "/nonexistent/log.csv"], "/nonexistent/log.csv"),
@@ -1023,4 +1030,95 @@ fn calibrate_json_carries_its_warnings_and_prints_them_on_stderr() {
             "{w} not on stderr"
         );
     }
+}
+
+#[test]
+fn calibrate_by_default_splits_and_says_when_a_result_sits_on_a_bound_or_logs_disagree() {
+    let dir = scratch("calibrate-disagree");
+    // The aluminium beam, and the same beam a tenth and two and a half times as stiff.
+    let params = |name: &str, ei_factor: f64| {
+        let mut p = model_core::BeamParams::aluminium();
+        p.ei_nm2 *= ei_factor;
+        let path = dir.join(name);
+        std::fs::write(&path, beam_tools::io::params_file::render(&p, "test beam")).unwrap();
+        path
+    };
+    let log = |name: &str, params: &PathBuf, extra: &[&str]| {
+        let path = dir.join(name);
+        let mut args = vec![
+            "simulate",
+            "--params",
+            params.to_str().unwrap(),
+            "--controller",
+            "pd",
+            "--duration",
+            "0.8",
+            "--csv",
+            path.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let out = beam(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        path.to_str().unwrap().to_string()
+    };
+    let second = ["--move", "30", "--from", "-15", "--time", "0.2"];
+    let same = params("same.toml", 1.0);
+    let (a, b) = (log("a.csv", &same, &[]), log("b.csv", &same, &second));
+    let stiffer = log("c.csv", &params("stiffer.toml", 1.1), &second);
+    let far = log("d.csv", &params("far.toml", 2.5), &[]);
+    let calibrate = |logs: &[&str]| {
+        let mut args = vec!["calibrate"];
+        args.extend(logs);
+        args.push("--json");
+        let out = beam(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v = json(&out);
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        let warnings: Vec<String> = v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w.as_str().unwrap().to_string())
+            .collect();
+        for w in &warnings {
+            assert!(stderr.contains(w.as_str()), "{w} not on stderr");
+        }
+        (v, warnings)
+    };
+    // Two moves of one beam agree; each was calibrated alone as well.
+    let (v, warnings) = calibrate(&[&a, &b]);
+    assert_eq!(v["method"], "split", "the default method");
+    assert_eq!(v["each_log"].as_array().unwrap().len(), 2);
+    assert!(
+        !warnings.iter().any(|w| w.contains("disagree")),
+        "{warnings:?}"
+    );
+    // A move of a beam 10 % stiffer: its first mode is 5 % higher, far beyond the
+    // intervals of either log alone.
+    let (_, warnings) = calibrate(&[&a, &stiffer]);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("disagree on ei_nm2") && w.contains("c.csv")),
+        "{warnings:?}"
+    );
+    // A beam 2.5 times as stiff as the guess: step 1's search ends at twice the guess.
+    let (v, warnings) = calibrate(&[&far]);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.starts_with("ei_nm2 ended") && w.contains("upper bound")),
+        "{warnings:?}"
+    );
+    let at = &v["split"]["at_bound"][0];
+    assert_eq!(at["name"], "ei_nm2", "{v}");
+    assert_eq!(at["side"], "upper", "{v}");
 }

@@ -695,6 +695,52 @@ pub struct StepReport {
     pub rms_theta_err_rad: f64,
     /// RMS root-strain error over the window (of every log) after the step, microstrain.
     pub rms_strain_err_ue: f64,
+    /// The step's parameters that ended on a bound of its search.
+    pub at_bound: Vec<AtBound>,
+}
+
+/// A fitted parameter that ended on (or beyond) a bound of its search: the logs push it
+/// further than the search lets it go, so its value is the bound's, not the logs'.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct AtBound {
+    /// The parameter.
+    pub name: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// The bound it sits on.
+    pub bound: f64,
+    /// `lower` or `upper`.
+    pub side: &'static str,
+}
+
+/// A result within this fraction of its search's range (in the search's own coordinate,
+/// logarithmic where the search is) of a bound is said to be on it.
+pub const BOUND_TOLERANCE: f64 = 1e-3;
+
+impl AtBound {
+    /// `Some` when `value` is on a bound of `range` (see [`BOUND_TOLERANCE`]).
+    pub fn check(range: &Param, value: f64) -> Option<Self> {
+        let u = if range.log {
+            (value.max(f64::MIN_POSITIVE).ln() - range.lo.ln()) / (range.hi.ln() - range.lo.ln())
+        } else {
+            (value - range.lo) / (range.hi - range.lo)
+        };
+        let (bound, side) = if u.is_nan() || range.hi <= range.lo {
+            return None;
+        } else if u <= BOUND_TOLERANCE {
+            (range.lo, "lower")
+        } else if u >= 1.0 - BOUND_TOLERANCE {
+            (range.hi, "upper")
+        } else {
+            return None;
+        };
+        Some(AtBound {
+            name: range.name,
+            value,
+            bound,
+            side,
+        })
+    }
 }
 
 /// Minimises `f` over the unit cube in `dims` dimensions: a Latin hypercube of
@@ -950,6 +996,10 @@ pub fn calibrate_many<const N: usize>(
                 .collect(),
             rms_theta_err_rad: et,
             rms_strain_err_ue: es,
+            at_bound: which
+                .iter()
+                .filter_map(|f| AtBound::check(&f.range, f.quantity.get(p)))
+                .collect(),
         });
         Ok::<(), CalibrateError>(())
     };

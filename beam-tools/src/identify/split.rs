@@ -31,7 +31,7 @@
 
 use crate::design::optimize::Param;
 use crate::identify::calibrate::{
-    minimise, replay, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
+    minimise, replay, AtBound, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
 };
 use crate::identify::lsq::Normal;
 use crate::identify::replay::{
@@ -127,6 +127,9 @@ pub struct SplitReport {
     /// Each log's encoder step found in its angle, rad (`None`: not on a grid, so no
     /// encoder term from it).
     pub encoder_step_rad: Vec<Option<f64>>,
+    /// Parameters that ended on a bound: of step 1's search, or friction the balance found
+    /// negative and that was set to zero.
+    pub at_bound: Vec<AtBound>,
 }
 
 /// The prescribed hub's half-width is multiplied by these to see how much the results
@@ -204,6 +207,8 @@ struct BeamFit {
     encoder: [f64; 5],
     /// The same for ln EI.
     ln_ei_encoder: f64,
+    /// The searched coordinates that ended on a bound of the search.
+    at_bound: Vec<AtBound>,
 }
 
 /// One row of the torque balance.
@@ -293,6 +298,18 @@ pub fn calibrate_split<const N: usize>(
             torque_scale: d[4],
         });
     }
+    // Friction cannot be negative: a balance that finds it so is held at zero, and said.
+    let mut at_bound = beam.at_bound.clone();
+    for (name, value) in [("viscous_nms", d[2]), ("coulomb_nm", d[3])] {
+        if value < 0.0 {
+            at_bound.push(AtBound {
+                name,
+                value,
+                bound: 0.0,
+                side: "lower",
+            });
+        }
+    }
     let ratio = beam.params.ei_nm2 / beam.params.density_kg_m3;
     let found = BeamParams {
         jm_kgm2: d[0],
@@ -337,6 +354,7 @@ pub fn calibrate_split<const N: usize>(
             tradeoffs,
             window_shift,
             encoder_step_rad: views.steps,
+            at_bound,
         },
     ))
 }
@@ -904,6 +922,7 @@ fn fit_beam<const N: usize>(
         ln_ei_encoder += ln_ei * ln_ei / enc_hubs.len() as f64;
     }
     let (encoder, ln_ei_encoder) = (encoder.map(f64::sqrt), ln_ei_encoder.sqrt());
+    let at_bound = search.at_bound(&params);
     Ok(BeamFit {
         params,
         gauge_scale: scale,
@@ -915,6 +934,7 @@ fn fit_beam<const N: usize>(
         ln_ei_shift,
         encoder,
         ln_ei_encoder,
+        at_bound,
     })
 }
 
@@ -992,6 +1012,24 @@ impl<'a> BeamSearch<'a> {
                 log: true,
             },
         }
+    }
+
+    /// The searched coordinates of `p` that sit on a bound of their range (after the
+    /// polish, which may also have left it).
+    fn at_bound(&self, p: &BeamParams) -> Vec<AtBound> {
+        self.kinds
+            .iter()
+            .filter_map(|&kind| {
+                let v = match kind {
+                    // The search's EI is at the guess's density.
+                    0 => p.ei_nm2 * self.g.density_kg_m3 / p.density_kg_m3,
+                    1 => p.damping_ratio,
+                    2 => p.root_gauge_m,
+                    _ => p.density_kg_m3,
+                };
+                AtBound::check(&self.range(kind), v)
+            })
+            .collect()
     }
 
     /// The starting point in the search's unit coordinates.
