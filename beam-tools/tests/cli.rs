@@ -762,7 +762,11 @@ fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
     )
     .unwrap();
     let s = script.to_str().unwrap();
-    let v = json(&beam(&["drive", "--sim", "--script", s, "--json"]));
+    // The stop at rest is refused: every exchange is still printed, and the exit code is 1.
+    let out = beam(&["drive", "--sim", "--script", s, "--json"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("refused 1 command"));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let replies: Vec<&str> = v["exchanges"]
         .as_array()
         .unwrap()
@@ -807,6 +811,44 @@ fn drive_runs_a_script_on_the_host_and_rejects_bad_input_in_one_line() {
         (
             vec!["drive", "--sim", "--session", "--payload", "2"],
             "--payload",
+        ),
+        // A script for a port is checked whole before the port is opened.
+        (
+            vec![
+                "drive",
+                "--port",
+                "/nonexistent/tty",
+                "status",
+                ";",
+                "attach",
+                "0.1",
+            ],
+            "nothing was sent",
+        ),
+        // Simulated time is capped (each tick is kept).
+        (
+            vec![
+                "drive", "--sim", "wait", "600", ";", "wait", "600", ";", "wait", "600", ";",
+                "wait", "1",
+            ],
+            "at most 1800 s",
+        ),
+        (
+            vec![
+                "drive",
+                "--sim",
+                "--done-max",
+                "0.05",
+                "move",
+                "90",
+                ";",
+                "done",
+            ],
+            "did not end",
+        ),
+        (
+            vec!["drive", "--sim", "--done-max", "0", "status"],
+            "--done-max",
         ),
     ] {
         let out = beam(&args);

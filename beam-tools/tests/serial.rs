@@ -99,11 +99,11 @@ fn beam_drive_talks_to_a_drive_over_a_tty_and_records_its_stream() {
     stop.store(true, Ordering::Relaxed);
     drive.join().unwrap();
     drop(slave);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    // The stop at rest and the negative payload are refused: exit code 1, every exchange
+    // printed all the same.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("refused 2 command"), "{stderr}");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let replies: Vec<&str> = v["exchanges"]
         .as_array()

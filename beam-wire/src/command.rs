@@ -124,6 +124,14 @@ pub enum Refusal {
     BadArgument,
     /// The gain table has no row for the drive's law.
     NoGains,
+    /// The hub still moves (faster than the drive's rest threshold): a move starts from
+    /// rest, so wait for the hub to stop.
+    HubMoving,
+    /// The move would last longer than the drive accepts.
+    TooLong {
+        /// The longest move, s.
+        max_s: f32,
+    },
 }
 
 /// Everything a commanded drive sends on its link: replies, and telemetry while streaming.
@@ -152,7 +160,7 @@ pub struct Record {
     /// Controller mode: 0 idle, 1 slewing, 2 holding, 3 fault.
     pub mode: u8,
     /// Latched fault bits.
-    pub faults: u8,
+    pub faults: u16,
     /// Records the drive has had to drop so far (the link was full).
     pub dropped: u32,
 }
@@ -163,7 +171,7 @@ pub struct Status {
     /// Controller mode: 0 idle, 1 slewing, 2 holding, 3 fault.
     pub mode: u8,
     /// Latched fault bits (`model_core::FaultFlags`).
-    pub faults: u8,
+    pub faults: u16,
     /// Hub angle, rad.
     pub theta_rad: f32,
     /// Hub rate (filtered), rad/s.
@@ -279,6 +287,10 @@ mod tests {
         struct FakeRequest {
             seq: u16,
             command: Fake,
+        }
+        // Framed as a request would be.
+        impl crate::Message for FakeRequest {
+            const KIND: u8 = <Request as crate::Message>::KIND;
         }
         let fake = FakeRequest {
             seq: 1,

@@ -5,8 +5,14 @@
 //! ended by a zero byte:
 //!
 //! ```text
-//! COBS( VERSION:u8 | LEN:u8 | payload: LEN bytes (postcard) | CRC-32/ISO-HDLC of the above: u32 LE ) 0x00
+//! COBS( VERSION << 4 | KIND:u8 | LEN:u8 | payload: LEN bytes (postcard) | CRC-32/ISO-HDLC of the above: u32 LE ) 0x00
 //! ```
+//!
+//! `KIND` names the message type ([`Message::KIND`]): the PIL protocol's two directions and
+//! the command protocol's two share the envelope, and a frame of one is never read as the
+//! other (a PIL sensor frame is not a command, an echoed reply not a request). Empty frames
+//! (a delimiter after a delimiter) are skipped, so a sender may start with a delimiter to
+//! end whatever noise came before.
 //!
 //! Every way a frame can be wrong has its own [`FrameError`]: too long, bad COBS, too short
 //! for its envelope, another protocol version, a length that disagrees with the bytes, a CRC
@@ -25,8 +31,34 @@ pub mod command;
 pub use beam_kinds::LawKind;
 use serde::{Deserialize, Serialize};
 
-/// Protocol version; bumped whenever a message changes.
-pub const VERSION: u8 = 1;
+/// Protocol version (the header byte's high four bits); bumped whenever a message changes.
+pub const VERSION: u8 = 2;
+
+/// A message the envelope carries, with the kind its header names (1 to 15).
+pub trait Message {
+    /// The header's low four bits for this message type.
+    const KIND: u8;
+}
+
+impl Message for HostMessage {
+    const KIND: u8 = 1;
+}
+
+impl Message for DriveMessage {
+    const KIND: u8 = 2;
+}
+
+impl Message for command::Request {
+    const KIND: u8 = 3;
+}
+
+impl Message for command::Uplink {
+    const KIND: u8 = 4;
+}
+
+impl Message for command::Reply {
+    const KIND: u8 = 5;
+}
 /// Largest payload, bytes.
 pub const MAX_PAYLOAD: usize = 96;
 /// Largest frame before COBS: version, length, payload, CRC.
@@ -65,7 +97,7 @@ pub struct CommandFrame {
     /// Controller mode: 0 idle, 1 slewing, 2 holding, 3 fault.
     pub mode: u8,
     /// Latched fault bits (`model_core::FaultFlags`).
-    pub faults: u8,
+    pub faults: u16,
 }
 
 /// Host to drive. Variants are only ever appended, so a frame of an older host still
@@ -172,6 +204,11 @@ pub enum FrameError {
     TrailingBytes,
     /// The message does not fit a frame (a bug on the sending side).
     Encode,
+    /// A frame of another message type (the other protocol, or the other direction).
+    Kind {
+        /// The kind in the frame (the receiver knows the one it expects).
+        got: u8,
+    },
 }
 
 impl core::fmt::Display for FrameError {
@@ -192,6 +229,7 @@ impl core::fmt::Display for FrameError {
             FrameError::Payload => write!(f, "payload does not decode"),
             FrameError::TrailingBytes => write!(f, "payload has trailing bytes"),
             FrameError::Encode => write!(f, "message too large for a frame"),
+            FrameError::Kind { got } => write!(f, "a frame of another message kind ({got})"),
         }
     }
 }
@@ -239,9 +277,10 @@ impl FrameReader {
         }
     }
 
-    /// Takes one byte. At a delimiter, returns the frame's bytes (ready for [`decode`]) or
-    /// [`FrameError::TooLong`] if more bytes came than a frame can hold; the reader is then
-    /// empty again, so one bad frame does not swallow the next.
+    /// Takes one byte. At a delimiter ending a frame that has bytes, returns them (ready
+    /// for [`decode`]) or [`FrameError::TooLong`] if more bytes came than a frame can hold;
+    /// the reader is then empty again, so one bad frame does not swallow the next. An empty
+    /// frame (a delimiter right after another, or first) returns nothing.
     pub fn push(&mut self, byte: u8) -> Option<Result<&mut [u8], FrameError>> {
         if byte != 0 {
             if self.len < self.buf.len() {
@@ -253,6 +292,10 @@ impl FrameReader {
             return None;
         }
         let (len, overflow) = (self.len, self.overflow);
+        if len == 0 && !overflow {
+            // An empty frame: a delimiter after a delimiter (a sender's leading one).
+            return None;
+        }
         self.len = 0;
         self.overflow = false;
         Some(if overflow {
@@ -271,7 +314,7 @@ impl FrameReader {
 
 /// Encodes `msg` into `out` and returns the frame including its zero delimiter. (Slices are
 /// taken with `get`, so no path here can panic: the drive runs it in an interrupt.)
-pub fn encode<'a, T: Serialize>(
+pub fn encode<'a, T: Serialize + Message>(
     msg: &T,
     out: &'a mut [u8; MAX_FRAME + 1],
 ) -> Result<&'a [u8], FrameError> {
@@ -279,7 +322,7 @@ pub fn encode<'a, T: Serialize>(
     let n = postcard::to_slice(msg, &mut raw[2..2 + MAX_PAYLOAD])
         .map_err(|_| FrameError::Encode)?
         .len();
-    raw[0] = VERSION;
+    raw[0] = VERSION << 4 | T::KIND;
     raw[1] = u8::try_from(n).map_err(|_| FrameError::Encode)?;
     let crc = CRC.checksum(raw.get(..2 + n).ok_or(FrameError::Encode)?);
     raw.get_mut(2 + n..6 + n)
@@ -294,12 +337,46 @@ pub fn encode<'a, T: Serialize>(
     out.get(..=len).ok_or(FrameError::Encode)
 }
 
+/// COBS-decodes `buf` in place (the bytes before the frame's zero delimiter) and returns
+/// the decoded length, or `None` for bytes that are not COBS (a zero inside, or a code that
+/// runs past the end). The `cobs` crate's decoder does the same but indexes with bounds
+/// checks, which put a panic (and `core::fmt`) on the drive's receive interrupt; this one
+/// reads and writes only through `get`.
+pub fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
+    // Nothing is not a COBS encoding (of nothing, it is one code byte).
+    if buf.is_empty() {
+        return None;
+    }
+    let (mut read, mut write) = (0usize, 0usize);
+    while let Some(&code) = buf.get(read) {
+        if code == 0 {
+            return None;
+        }
+        read += 1;
+        for _ in 1..code {
+            let byte = *buf.get(read)?;
+            if byte == 0 {
+                return None;
+            }
+            *buf.get_mut(write)? = byte;
+            read += 1;
+            write += 1;
+        }
+        // A code below 0xFF ends a group with a zero, unless the data ends there.
+        if code != 0xFF && read < buf.len() {
+            *buf.get_mut(write)? = 0;
+            write += 1;
+        }
+    }
+    Some(write)
+}
+
 /// Decodes one frame (the bytes before its zero delimiter, decoded in place) as a `T`.
-pub fn decode<'de, T: Deserialize<'de>>(frame: &'de mut [u8]) -> Result<T, FrameError> {
+pub fn decode<'de, T: Deserialize<'de> + Message>(frame: &'de mut [u8]) -> Result<T, FrameError> {
     if frame.len() > MAX_FRAME {
         return Err(FrameError::TooLong);
     }
-    let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
+    let n = cobs_decode_in_place(frame).ok_or(FrameError::Cobs)?;
     let raw: &[u8] = frame.get(..n).ok_or(FrameError::Cobs)?;
     let (Some(&version), Some(&declared)) = (raw.first(), raw.get(1)) else {
         return Err(FrameError::Short { len: n as u16 });
@@ -307,8 +384,13 @@ pub fn decode<'de, T: Deserialize<'de>>(frame: &'de mut [u8]) -> Result<T, Frame
     if n < 6 {
         return Err(FrameError::Short { len: n as u16 });
     }
-    if version != VERSION {
-        return Err(FrameError::Version { got: version });
+    if version >> 4 != VERSION {
+        return Err(FrameError::Version { got: version >> 4 });
+    }
+    if version & 0x0F != T::KIND {
+        return Err(FrameError::Kind {
+            got: version & 0x0F,
+        });
     }
     let actual = n - 6;
     if declared as usize != actual {
@@ -404,6 +486,30 @@ mod tests {
         out
     }
 
+    proptest::proptest! {
+        /// The drive's decoder agrees with the `cobs` crate's on any bytes: the same
+        /// verdict, and the same bytes when both decode (the crate's is the reference).
+        #[test]
+        fn the_panic_free_cobs_decoder_agrees_with_the_crate(
+            raw in proptest::collection::vec(proptest::num::u8::ANY, 0..300),
+            garbage in proptest::collection::vec(1u8..=255, 0..300),
+        ) {
+            // Encoded data round-trips.
+            let mut framed = wrap(&raw);
+            let n = cobs_decode_in_place(&mut framed);
+            proptest::prop_assert_eq!(n, Some(raw.len()));
+            proptest::prop_assert_eq!(&framed[..raw.len()], &raw[..]);
+            // Any zero-free bytes: the same verdict as the crate.
+            let (mut ours, mut theirs) = (garbage.clone(), garbage.clone());
+            let a = cobs_decode_in_place(&mut ours);
+            let b = cobs::decode_in_place(&mut theirs).ok();
+            proptest::prop_assert_eq!(a, b);
+            if let Some(n) = a {
+                proptest::prop_assert_eq!(&ours[..n], &theirs[..n]);
+            }
+        }
+    }
+
     fn raw_of(m: HostMessage) -> Vec<u8> {
         let mut f = encoded(m);
         let n = cobs::decode_in_place(&mut f).unwrap();
@@ -436,6 +542,16 @@ mod tests {
             ]
         );
         assert!(r.partial());
+        // Empty frames (delimiters in a row, or a sender's leading one) are skipped.
+        let mut bytes = vec![0, 0];
+        bytes.extend(encoded(HostMessage::Stop));
+        bytes.extend([0, 0, 0]);
+        let mut r = FrameReader::new();
+        let got: Vec<_> = bytes
+            .into_iter()
+            .filter_map(|b| r.push(b).map(|f| f.and_then(decode::<HostMessage>)))
+            .collect();
+        assert_eq!(got, [Ok(HostMessage::Stop)]);
     }
 
     #[test]
@@ -467,8 +583,31 @@ mod tests {
             Err(FrameError::Length { .. })
         ));
         let mut raw = raw_of(sensors());
-        raw[0] = 9;
+        raw[0] = 9 << 4 | <HostMessage as Message>::KIND;
         assert_eq!(decode_host(wrap(&raw)), Err(FrameError::Version { got: 9 }));
+        // A frame of the other protocol, or of the other direction, is never read as this
+        // one: a command request is not a PIL message, a drive's reply not a request.
+        let request = command::Request {
+            seq: 1,
+            command: command::Command::SetPayload { kg: 0.0 },
+        };
+        let mut buf = [0u8; MAX_FRAME + 1];
+        let mut f = encode(&request, &mut buf).unwrap().to_vec();
+        f.pop();
+        assert_eq!(
+            decode::<HostMessage>(&mut f.clone()),
+            Err(FrameError::Kind { got: 3 })
+        );
+        let reply = command::Uplink::Reply(command::Reply {
+            seq: 1,
+            outcome: command::Outcome::Done,
+        });
+        let mut f = encode(&reply, &mut buf).unwrap().to_vec();
+        f.pop();
+        assert_eq!(
+            decode::<command::Request>(&mut f),
+            Err(FrameError::Kind { got: 4 })
+        );
         let mut raw = raw_of(sensors());
         let last = raw.len() - 1;
         raw[last] ^= 0x80;
@@ -477,12 +616,13 @@ mod tests {
             Err(FrameError::Crc { .. })
         ));
         // A well-enveloped payload that is not a host message.
-        let mut raw = vec![VERSION, 1, 0x07];
+        let head = VERSION << 4 | <HostMessage as Message>::KIND;
+        let mut raw = vec![head, 1, 0x07];
         let crc = CRC.checksum(&raw);
         raw.extend(crc.to_le_bytes());
         assert_eq!(decode_host(wrap(&raw)), Err(FrameError::Payload));
         // Stop with a byte after it.
-        let mut raw = vec![VERSION, 2, 2, 0x55];
+        let mut raw = vec![head, 2, 2, 0x55];
         let crc = CRC.checksum(&raw);
         raw.extend(crc.to_le_bytes());
         assert_eq!(decode_host(wrap(&raw)), Err(FrameError::TrailingBytes));

@@ -90,7 +90,7 @@ impl Telemetry {
     /// reference, strain, mode (0 idle, 1 slewing, 2 holding, 3 fault), fault bits.
     pub fn log(&self) {
         defmt::info!(
-            "tlm {=u32} {=u32} {=i32} {=f32} {=f32} {=f32} {=f32} {=u8} {=u8}",
+            "tlm {=u32} {=u32} {=i32} {=f32} {=f32} {=f32} {=f32} {=u8} {=u16}",
             self.tick,
             self.encoder_raw,
             self.strain_code,

@@ -211,11 +211,13 @@ fn halt(e: board::BringUpError) -> ! {
 #[cfg(target_os = "none")]
 static PANICKING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
 
-/// Torque off first, then the report. The watchdog, no longer fed, then resets the MCU,
-/// which comes back idle with torque off.
+/// Torque off first, then the report. Interrupts are masked, so the tick (which feeds the
+/// watchdog) no longer runs whichever context panicked (the tick, the link's interrupt or
+/// `idle`); the watchdog then resets the MCU, which comes back idle with torque off.
 #[cfg(target_os = "none")]
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    cortex_m::interrupt::disable();
     board::safe_state();
     if !PANICKING.swap(true, core::sync::atomic::Ordering::Relaxed) {
         // The location only: formatting the message would link core::fmt's float printing

@@ -183,3 +183,70 @@ fn the_strain_code_reaches_the_controller_sign_extended() {
     assert_eq!(t.strain_code, -1234);
     assert_eq!(code_from_bytes([0xFF, 0xFB, 0x2E]), -1234);
 }
+
+/// A drive in the middle of its compiled-in move, the amplifier enabled.
+fn slewing() -> (TestDrive, &'static Bench) {
+    let (mut d, b) = drive();
+    run(&mut d, 10);
+    let [out, _] = sequence().unwrap();
+    d.command(Command::Move(out)).unwrap();
+    run(&mut d, 30);
+    assert!(b.en_high.get());
+    assert_eq!(d.controller().mode(), Mode::Slewing);
+    (d, b)
+}
+
+#[test]
+fn a_bus_error_mid_move_disables_the_amplifier_in_the_same_tick() {
+    let (mut d, b) = slewing();
+    b.bus_broken.set(true);
+    let t = run(&mut d, 1);
+    assert_eq!((t.mode, t.torque_nm), (Mode::Fault, 0.0));
+    assert!(t.faults.contains(FaultFlags::DRIVER));
+    assert!(!b.en_high.get());
+    assert_eq!(b.duty.get(), 0);
+}
+
+#[test]
+fn a_bridge_at_either_rail_mid_move_latches_adc_rail_with_the_torque_off() {
+    // The ADS1220's 24-bit codes run from -2^23 to 2^23 - 1; a code at either end is a
+    // saturated or disconnected bridge.
+    for rail in [-(1 << 23), (1 << 23) - 1] {
+        let (mut d, b) = slewing();
+        b.strain_code.set(rail);
+        let t = run(&mut d, 1);
+        assert_eq!((t.mode, t.torque_nm), (Mode::Fault, 0.0), "code {rail}");
+        assert!(
+            t.faults.contains(FaultFlags::ADC_RAIL),
+            "code {rail}: {:?}",
+            t.faults
+        );
+        assert!(!b.en_high.get());
+        assert_eq!(b.duty.get(), 0);
+    }
+}
+
+#[test]
+fn a_faulted_drive_keeps_the_amplifier_off_until_cleared_and_moved_again() {
+    let (mut d, b) = slewing();
+    b.amp_fault.set(true);
+    run(&mut d, 1);
+    b.amp_fault.set(false);
+    // Faulted: however the hub and the bridge read, no tick enables the amplifier or sets a
+    // duty, and a move is refused.
+    for k in 0..200u32 {
+        b.encoder_raw
+            .set((b.encoder_raw.get() + 3 * (k % 5)) & 0xFFFF);
+        let t = d.tick();
+        assert_eq!((t.mode, t.torque_nm), (Mode::Fault, 0.0));
+        assert!(!b.en_high.get());
+        assert_eq!(b.duty.get(), 0);
+    }
+    let [out, _] = sequence().unwrap();
+    assert_eq!(d.command(Command::Move(out)), Err(CommandError::Faulted));
+    // Cleared: idle, still off.
+    d.command(Command::ClearFault).unwrap();
+    let t = run(&mut d, 5);
+    assert_eq!((t.mode, t.torque_nm), (Mode::Idle, 0.0));
+    assert!(!b.en_high.get());
+}

@@ -1,18 +1,23 @@
 //! The drive's command path on arbitrary bytes: frames that do not decode as a `Request` are
 //! rejected by name; every request that does decode is carried out by model-core's handler
-//! without a panic, and a refused one changes neither the controller nor the handler.
+//! without a panic, and a refused one changes neither the controller nor the handler. The
+//! first byte picks the drive's state (idle, a move armed, slewing, holding, faulted, the hub
+//! coasting).
 #![no_main]
 
-use beam_wire::command::{Outcome, Request};
+use beam_wire::command::{Command, Outcome, Request};
 use beam_wire::{decode, encode, FrameReader, MAX_FRAME};
 use libfuzzer_sys::fuzz_target;
 use model_core::commands::{CommandedController, Commander};
-use model_core::{Controller, ControllerSettings, LawKind, RawMeasurement, Spline};
+use model_core::{Controller, ControllerSettings, LawKind, Mode, RawMeasurement, Spline};
 use std::sync::OnceLock;
 
-fn drive() -> &'static (Commander, CommandedController) {
-    static DRIVE: OnceLock<(Commander, CommandedController)> = OnceLock::new();
-    DRIVE.get_or_init(|| {
+/// The drive in each state a command can meet, built once: idle, a move answered but not
+/// yet started, slewing, holding, faulted, and idle with the hub coasting (the torque off).
+/// The input's first byte picks one.
+fn drives() -> &'static [(Commander, CommandedController)] {
+    static DRIVES: OnceLock<Vec<(Commander, CommandedController)>> = OnceLock::new();
+    DRIVES.get_or_init(|| {
         let (commander, law) = Commander::try_new(
             &model_core::gains::PLANT,
             model_core::gains::GAIN_TABLE,
@@ -25,14 +30,69 @@ fn drive() -> &'static (Commander, CommandedController) {
             .expect("default settings build");
         // A few idle ticks, so the handler sees a measured angle.
         let raw = RawMeasurement::default();
-        for _ in 0..5 {
-            ctl.step(&raw);
+        let ticks = |ctl: &mut CommandedController, n: usize, raw: &RawMeasurement| {
+            for _ in 0..n {
+                ctl.step(raw);
+            }
+        };
+        ticks(&mut ctl, 5, &raw);
+        let idle = (commander.clone(), ctl.clone());
+        let go = |to_rad: f32| {
+            let (mut c, mut ctl) = idle.clone();
+            let request = Request {
+                seq: 1,
+                command: Command::MoveTo {
+                    to_rad,
+                    time_s: None,
+                },
+            };
+            let reply = c.handle(&mut ctl, &request);
+            assert!(matches!(reply.outcome, Outcome::Moving { .. }), "{reply:?}");
+            (c, ctl)
+        };
+        let armed = go(0.5);
+        let mut slewing = go(0.5);
+        ticks(&mut slewing.1, 10, &raw);
+        let mut holding = go(0.001);
+        ticks(&mut holding.1, 2000, &raw);
+        let mut faulted = idle.clone();
+        let fault = RawMeasurement {
+            amp_fault: true,
+            ..raw
+        };
+        ticks(&mut faulted.1, 1, &fault);
+        let mut coasting = idle.clone();
+        for k in 1..=50u32 {
+            let turning = RawMeasurement {
+                encoder_raw: 5 * k,
+                ..raw
+            };
+            ticks(&mut coasting.1, 1, &turning);
         }
-        (commander, ctl)
+        let modes = [&idle, &armed, &slewing, &holding, &faulted, &coasting].map(|d| d.1.mode());
+        assert_eq!(
+            modes,
+            [
+                Mode::Idle,
+                Mode::Slewing,
+                Mode::Slewing,
+                Mode::Holding,
+                Mode::Fault,
+                Mode::Idle
+            ]
+        );
+        vec![idle, armed, slewing, holding, faulted, coasting]
     })
 }
 
 fuzz_target!(|data: &[u8]| {
+    // The first byte picks the state and is read as the frame's too, so the seed frames
+    // stay frames.
+    let Some(&pick) = data.first() else {
+        return;
+    };
+    let drives = drives();
+    let start = &drives[pick as usize % drives.len()];
     let mut reader = FrameReader::new();
     for &b in data {
         let Some(Ok(frame)) = reader.push(b) else {
@@ -47,7 +107,7 @@ fuzz_target!(|data: &[u8]| {
         let mut again = encode(&request, &mut buf).expect("re-encodes").to_vec();
         again.pop();
         assert_eq!(decode::<Request>(&mut again), Ok(request.clone()));
-        let (mut commander, mut ctl) = drive().clone();
+        let (mut commander, mut ctl) = start.clone();
         let before = (commander.clone(), ctl.clone());
         let reply = commander.handle(&mut ctl, &request);
         assert_eq!(reply.seq, request.seq);

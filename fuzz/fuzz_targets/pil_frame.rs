@@ -7,7 +7,7 @@ use libfuzzer_sys::fuzz_target;
 
 fn roundtrip<T>(frame: &[u8])
 where
-    T: serde::Serialize + for<'de> serde::Deserialize<'de>,
+    T: serde::Serialize + for<'de> serde::Deserialize<'de> + beam_wire::Message,
 {
     let mut copy = frame.to_vec();
     if let Ok(msg) = decode::<T>(&mut copy) {

@@ -34,18 +34,18 @@ def move_through(points, time_s=None):
 
 
 SEEDS = {
-    "move_to": frame(request(1, move_to(0.785, None))),
-    "move_to_timed": frame(request(2, move_to(-1.5708, 0.3))),
-    "move_through": frame(request(3, move_through([(0.17, None), (-0.52, None)]))),
+    "move_to": frame(request(1, move_to(0.785, None)), 3),
+    "move_to_timed": frame(request(2, move_to(-1.5708, 0.3)), 3),
+    "move_through": frame(request(3, move_through([(0.17, None), (-0.52, None)])), 3),
     "move_through_timed": frame(
-        request(4, move_through([(0.1 * i, 0.2 * (i + 1)) for i in range(8)]))
+        request(4, move_through([(0.1 * i, 0.2 * (i + 1)) for i in range(8)])), 3
     ),
-    "set_payload": frame(request(5, varint(2) + f32(0.025))),
-    "stop_disable_clear_status": frame(request(6, varint(3)))
-    + frame(request(7, varint(4)))
-    + frame(request(8, varint(5)))
-    + frame(request(9, varint(6))),
-    "stream": frame(request(10, varint(7) + varint(10))),
+    "set_payload": frame(request(5, varint(2) + f32(0.025)), 3),
+    "stop_disable_clear_status": frame(request(6, varint(3)), 3)
+    + frame(request(7, varint(4)), 3)
+    + frame(request(8, varint(5)), 3)
+    + frame(request(9, varint(6)), 3),
+    "stream": frame(request(10, varint(7) + varint(10)), 3),
 }
 
 if __name__ == "__main__":

@@ -35,8 +35,9 @@ def cobs(data):
     return bytes(out)
 
 
-def frame(payload):
-    raw = bytes([1, len(payload)]) + payload  # version 1, payload length
+def frame(payload, kind):
+    """kind: 1 PIL host to drive, 2 PIL drive to host, 3 command request (beam_wire::Message)."""
+    raw = bytes([2 << 4 | kind, len(payload)]) + payload  # version 2 and message kind, payload length
     raw += struct.pack("<I", zlib.crc32(raw))
     return cobs(raw) + b"\x00"
 
@@ -48,13 +49,13 @@ def sensors(seq, enc, code, amp, start):
 SETUP_SMC_0KG = bytes([0, 1]) + struct.pack("<f", 0.0)
 STOP = bytes([2])
 SEEDS = {
-    "setup_sensors_stop": frame(SETUP_SMC_0KG)
-    + frame(sensors(0, 0, 1234, 0, 0))
-    + frame(sensors(1, 65535, -8388608, 1, 1))
-    + frame(STOP),
-    "sensors": frame(sensors(123456, 40000, -517, 0, 1)),
-    "command": frame(bytes([1]) + varint(7) + struct.pack("<fff", 1.5, -1.5707964, 1e-6) + bytes([1, 0])),
-    "error_sequence": frame(bytes([2, 1, 2, 5])),
+    "setup_sensors_stop": frame(SETUP_SMC_0KG, 1)
+    + frame(sensors(0, 0, 1234, 0, 0), 1)
+    + frame(sensors(1, 65535, -8388608, 1, 1), 1)
+    + frame(STOP, 1),
+    "sensors": frame(sensors(123456, 40000, -517, 0, 1), 1),
+    "command": frame(bytes([1]) + varint(7) + struct.pack("<fff", 1.5, -1.5707964, 1e-6) + bytes([1, 0]), 2),
+    "error_sequence": frame(bytes([2, 1, 2, 5]), 2),
 }
 
 if __name__ == "__main__":

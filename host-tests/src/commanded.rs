@@ -322,7 +322,7 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
 /// A session that exercises every command: from rest at 0 deg, to 45 deg (with a status
 /// during and after), through 10 and -30 deg, the payload changed to 25 g (attached to the
 /// beam too), to -90 and then +90 deg (the paper's 180 deg), towards -90 again but stopped
-/// 80 ms in, an amplifier fault (a move refused while it is latched), the fault cleared, and
+/// 80 ms in, an amplifier fault (the status shows it latched), the fault cleared, and
 /// a last move back to 0 deg; each move in the shortest time the planner allows.
 pub fn session_script() -> Vec<Step> {
     const DEG: f32 = core::f32::consts::PI / 180.0;
@@ -369,7 +369,7 @@ pub fn session_script() -> Vec<Step> {
         Step::Send(Command::Status),
         Step::AmpFault(3),
         Step::Wait(0.01),
-        move_to(0.0),
+        Step::Send(Command::Status),
         Step::Send(Command::ClearFault),
         Step::Wait(0.3),
         move_to(0.0),

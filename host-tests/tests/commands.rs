@@ -124,13 +124,16 @@ fn a_session_of_commands_moves_the_beam_and_leaves_it_at_rest_after_each_move() 
         .map(|k| (k.root_strain * 1e6).abs())
         .fold(0.0, f64::max);
     assert!(rms < 0.1 * peak, "after the stop: {rms} ue of {peak}");
-    // The fault: the move refused, cleared, the next move runs.
-    assert_eq!(
-        outcomes[stop + 2],
-        Outcome::Refused(Refusal::Faulted),
-        "{:?}",
-        &outcomes[stop..]
-    );
+    // The fault: latched (torque off), cleared, the next move runs. No command of the
+    // session is refused, so `beam drive --session` exits 0.
+    match outcomes[stop + 2] {
+        Outcome::Status(s) => {
+            assert_eq!(s.mode, Mode::Fault as u8);
+            assert_eq!(s.faults, model_core::FaultFlags::AMP_FAULT.0);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(!outcomes.iter().any(|o| matches!(o, Outcome::Refused(_))));
     assert_eq!(outcomes[stop + 3], Outcome::Done);
     assert!(moving(&outcomes[stop + 4]));
     match outcomes[stop + 5] {
@@ -222,4 +225,190 @@ fn every_refusal_leaves_the_drive_as_it_was() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+/// The drive's run of `script` from rest at `home_deg`, with `kind`.
+fn run(kind: LawKind, home_deg: f32, script: &[Step]) -> CommandedRun {
+    run_commands::<3>(
+        BeamParams::aluminium(),
+        0.0,
+        kind,
+        home_deg * DEG,
+        script,
+        SensorConfig::default(),
+    )
+    .unwrap()
+}
+
+fn outcomes(run: &CommandedRun) -> Vec<Outcome> {
+    run.exchanges.iter().map(|e| e.reply.outcome).collect()
+}
+
+fn status(o: &Outcome) -> beam_wire::command::Status {
+    match o {
+        Outcome::Status(s) => *s,
+        other => panic!("not a status: {other:?}"),
+    }
+}
+
+#[test]
+fn a_move_is_running_from_its_answer_on() {
+    // Stop on the same tick as the move: the move is cut at its start, the hub stays put.
+    let r = run(
+        LawKind::PdFf,
+        0.0,
+        &[move_to(90.0), Step::Send(Command::Stop), done()],
+    );
+    let o = outcomes(&r);
+    assert!(matches!(o[1], Outcome::Moving { .. }), "{o:?}");
+    let furthest = r.ticks.iter().map(|k| k.theta.abs()).fold(0.0, f64::max);
+    assert!(furthest.to_degrees() < 0.5, "{} deg", furthest.to_degrees());
+    // A second move, or a payload, on the same tick: busy, and the first move runs whole.
+    let r = run(
+        LawKind::PdFf,
+        0.0,
+        &[
+            move_to(90.0),
+            move_to(-90.0),
+            Step::Send(Command::SetPayload { kg: 0.05 }),
+            done(),
+            Step::Send(Command::Status),
+        ],
+    );
+    let o = outcomes(&r);
+    assert_eq!(o[1], Outcome::Refused(Refusal::Busy));
+    assert_eq!(o[2], Outcome::Refused(Refusal::Busy));
+    let s = status(&o[3]);
+    assert!(
+        (s.theta_rad / DEG - 90.0).abs() < 0.5,
+        "{}",
+        s.theta_rad / DEG
+    );
+    assert_eq!(s.payload_kg, 0.0);
+}
+
+#[test]
+fn clearing_a_fault_keeps_the_angle_the_drive_reports() {
+    // From rest at 45 deg: the status right after `clear` reports 45 deg, not the zero, and
+    // a move planned then starts where the hub is (no start-mismatch fault).
+    let r = run(
+        LawKind::PdFf,
+        45.0,
+        &[
+            Step::Send(Command::ClearFault),
+            Step::Send(Command::Status),
+            move_to(10.0),
+            done(),
+            Step::Send(Command::Status),
+        ],
+    );
+    let o = outcomes(&r);
+    assert!((status(&o[1]).theta_rad / DEG - 45.0).abs() < 0.01);
+    assert!(matches!(o[2], Outcome::Moving { .. }));
+    let s = status(&o[3]);
+    assert_eq!(s.faults, 0);
+    assert!((s.theta_rad / DEG - 10.0).abs() < 0.5);
+}
+
+#[test]
+fn a_hub_that_coasted_out_of_range_is_braked_and_brought_back() {
+    // The torque off mid-move: the hub coasts turns past the range. A move is refused while
+    // it turns; `stop` brakes it; then a move back into the range is accepted and ends there.
+    let r = run(
+        LawKind::PdFf,
+        0.0,
+        &[
+            move_to(170.0),
+            Step::Wait(0.2),
+            Step::Send(Command::Disable),
+            Step::Wait(1.0),
+            Step::Send(Command::Status),
+            move_to(0.0),
+            Step::Send(Command::Stop),
+            done(),
+            Step::Send(Command::Status),
+            move_to(0.0),
+            done(),
+            Step::Send(Command::Status),
+        ],
+    );
+    let o = outcomes(&r);
+    let coasting = status(&o[2]);
+    assert!(coasting.theta_rad > core::f32::consts::PI, "{coasting:?}");
+    assert!(coasting.omega_rad_s.abs() > 1.0, "{coasting:?}");
+    assert_eq!(o[3], Outcome::Refused(Refusal::HubMoving));
+    assert!(matches!(o[4], Outcome::Moving { .. }), "{:?}", o[4]);
+    let braked = status(&o[5]);
+    assert_eq!(braked.faults, 0, "{braked:?}");
+    assert!(braked.theta_rad > core::f32::consts::PI);
+    assert!(matches!(o[6], Outcome::Moving { .. }), "{:?}", o[6]);
+    let back = status(&o[7]);
+    assert_eq!(back.faults, 0);
+    assert!((back.theta_rad / DEG).abs() < 0.5, "{back:?}");
+    assert!(r.ticks.iter().all(|k| k.torque_nm.abs() <= 10.0));
+}
+
+#[test]
+fn the_stated_range_is_the_real_one_and_moves_have_a_longest_time() {
+    let r = run(
+        LawKind::PdFf,
+        0.0,
+        &[
+            move_to(180.0),
+            done(),
+            move_to(-180.0),
+            done(),
+            Step::Send(Command::Status),
+            move_to(180.1),
+            Step::Send(Command::MoveTo {
+                to_rad: 45.0 * DEG,
+                time_s: Some(1e30),
+            }),
+            Step::Send(Command::MoveTo {
+                to_rad: 45.0 * DEG,
+                time_s: Some(model_core::planner::MAX_MOVE_S + 1.0),
+            }),
+            Step::Send(Command::SetPayload {
+                kg: model_core::gains::PLANT.max_payload_kg() as f32 + 0.01,
+            }),
+            Step::Send(Command::Status),
+        ],
+    );
+    let o = outcomes(&r);
+    assert!(matches!(o[0], Outcome::Moving { .. }), "{:?}", o[0]);
+    assert!(matches!(o[1], Outcome::Moving { .. }), "{:?}", o[1]);
+    assert!((status(&o[2]).theta_rad / DEG + 180.0).abs() < 0.5);
+    assert!(matches!(o[3], Outcome::Refused(Refusal::OutOfRange { .. })));
+    let too_long = Outcome::Refused(Refusal::TooLong {
+        max_s: model_core::planner::MAX_MOVE_S,
+    });
+    assert_eq!(o[4], too_long);
+    assert_eq!(o[5], too_long);
+    assert_eq!(o[6], Outcome::Refused(Refusal::BadArgument));
+    // None of the refusals moved anything.
+    assert_eq!(status(&o[7]).mode, Mode::Holding as u8);
+}
+
+#[test]
+fn a_move_commanded_while_the_hub_coasts_is_refused() {
+    let r = run(
+        LawKind::PdFf,
+        0.0,
+        &[
+            move_to(90.0),
+            Step::Wait(0.2),
+            Step::Send(Command::Disable),
+            move_to(0.0),
+            Step::Wait(0.1),
+        ],
+    );
+    let o = outcomes(&r);
+    assert_eq!(o[2], Outcome::Refused(Refusal::HubMoving));
+    // The torque stayed off after the disable.
+    let off = r.exchanges[1].t;
+    assert!(r
+        .ticks
+        .iter()
+        .filter(|k| k.t > off)
+        .all(|k| k.torque_nm == 0.0));
 }

@@ -7,13 +7,23 @@
 //! the drive's limits; gains and the shaper come from the compiled gain table, scheduled on
 //! the payload. The policy for a command that arrives mid-move is to refuse it
 //! ([`Refusal::Busy`]), except `Stop`, `Disable`, `Status` and `Stream`: nothing queues.
+//!
+//! A command's effect is decided when it is answered: a move answered `Moving` is the
+//! running move for every later command, though it starts on the next tick (`Stop` cuts it
+//! at its start, a second move or a payload is `Busy`). A move starts from rest
+//! ([`Refusal::HubMoving`] while the hub turns faster than
+//! [`crate::controller::REST_RAD_S`]); `Stop` with no move running but the hub turning (the
+//! torque was off) brakes it, so that a hub that coasted out of the range can be stopped and
+//! then moved back into it.
 
 use crate::beam::ParamError;
 use crate::controller::{Controller, Mode, Snapshot};
 use crate::error::{CommandError, PlanError};
 use crate::gains::{schedule_shaper, scheduled_law, GainRow};
 use crate::law::{ControlLaw, LawKind};
-use crate::planner::{plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS};
+use crate::planner::{
+    plan_brake, plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS,
+};
 use crate::plant::Plant;
 use crate::shaper::Shaper;
 pub use beam_wire::command::{Command, Outcome, Refusal, Reply, Request, Status};
@@ -155,7 +165,9 @@ impl Commander {
                         at_s: w.at_s,
                     };
                 }
-                self.plan(snap, &points[..waypoints.len()], *time_s)
+                // (`get`: no bounds-check panic; the wire holds at most MAX_WAYPOINTS.)
+                let points = points.get(..waypoints.len()).unwrap_or(&[]);
+                self.plan(snap, points, *time_s)
             }
             Command::SetPayload { kg } => {
                 ready?;
@@ -173,7 +185,12 @@ impl Commander {
             }
             Command::Stop => {
                 if snap.mode != Mode::Slewing {
-                    return Err(Refusal::NotMoving);
+                    // No move, but a hub still turning (the torque was off): brake it (a
+                    // latched fault refuses the brake when it is applied).
+                    if at_rest(snap).is_ok() {
+                        return Err(Refusal::NotMoving);
+                    }
+                    return start(plan_brake(snap.theta_rad, snap.omega_rad_s, &self.limits));
                 }
                 let current = self.current.as_ref().ok_or(Refusal::NotMoving)?;
                 // The next tick evaluates the move at the elapsed time (it has counted this
@@ -257,22 +274,21 @@ impl Commander {
         }
     }
 
-    /// Plans the move from the hub's last measured angle.
+    /// Plans the move from the hub's last measured angle, with the hub at rest.
     fn plan(
         &self,
         snap: &Snapshot,
         waypoints: &[Waypoint],
         time_s: Option<f32>,
     ) -> Result<Action, Refusal> {
-        plan_through(
+        at_rest(snap)?;
+        start(plan_through(
             snap.theta_rad,
             waypoints,
             time_s,
             &self.shaper,
             &self.limits,
-        )
-        .map(Action::Start)
-        .map_err(plan_refusal)
+        ))
     }
 
     /// The drive's state.
@@ -330,10 +346,25 @@ pub struct Schedule {
     pub limits: Limits,
 }
 
+/// A move starts from rest: refused while the hub turns faster than
+/// [`crate::controller::REST_RAD_S`] (after `Disable`, a hub may coast for seconds).
+fn at_rest(snap: &Snapshot) -> Result<(), Refusal> {
+    if libm::fabsf(snap.omega_rad_s) > crate::controller::REST_RAD_S {
+        return Err(Refusal::HubMoving);
+    }
+    Ok(())
+}
+
+/// A plan to start, or the refusal its planning error means.
+fn start(plan: Result<Plan, PlanError>) -> Result<Action, Refusal> {
+    plan.map(Action::Start).map_err(plan_refusal)
+}
+
 fn plan_refusal(e: PlanError) -> Refusal {
     match e {
         PlanError::TooFast { needs_s } => Refusal::TooFast { needs_s },
         PlanError::OutOfRange { rad, .. } => Refusal::OutOfRange { rad },
+        PlanError::TooLong { max_s } => Refusal::TooLong { max_s },
         PlanError::NoWaypoints
         | PlanError::TooManyWaypoints { .. }
         | PlanError::NonFinite

@@ -55,6 +55,8 @@ pub struct Snapshot {
     pub mode: Mode,
     /// The hub angle of the last tick, rad.
     pub theta_rad: f32,
+    /// The hub rate (filtered) of the last tick, rad/s.
+    pub omega_rad_s: f32,
     /// Time into the move, s: where the next tick evaluates it.
     pub move_elapsed_s: f32,
 }
@@ -62,7 +64,7 @@ pub struct Snapshot {
 /// A set of latched faults (bit flags).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct FaultFlags(pub u8);
+pub struct FaultFlags(pub u16);
 
 impl FaultFlags {
     /// A derived value (angle, velocity, strain, torque) was NaN or infinite.
@@ -82,9 +84,12 @@ impl FaultFlags {
     /// The encoder did not move for [`STALL_TICKS`] while the drive commanded at least
     /// [`STALL_TORQUE_FRACTION`] of its torque limit: a stuck encoder or a blocked hub.
     pub const ENCODER_STUCK: FaultFlags = FaultFlags(1 << 7);
+    /// The hub left the drive's range by more than [`RANGE_FAULT_MARGIN_RAD`] with the
+    /// torque on (widened to the move's start and end where they are outside it).
+    pub const OUT_OF_RANGE: FaultFlags = FaultFlags(1 << 8);
 
     /// Names for display, in bit order.
-    const NAMES: [&'static str; 8] = [
+    const NAMES: [&'static str; 9] = [
         "non-finite",
         "adc-rail",
         "encoder-jump",
@@ -93,6 +98,7 @@ impl FaultFlags {
         "start-mismatch",
         "driver",
         "encoder-stuck",
+        "out-of-range",
     ];
 
     /// True when no fault is set.
@@ -226,6 +232,9 @@ struct State {
     zero_mean: f32,
     offset_code: f32,
     start_pending: bool,
+    /// The angles the hub may reach under torque in this move (set when it is armed):
+    /// [`RANGE_RAD`], widened to the move's start and end, plus [`RANGE_FAULT_MARGIN_RAD`].
+    range: (f32, f32),
     ticks: u32,
     /// Consecutive ticks with no count change under substantial torque.
     stall_ticks: u32,
@@ -235,6 +244,24 @@ struct State {
     theta: f32,
     strain: f32,
 }
+
+/// The drive's range, rad: moves are planned within +-this of the encoder's zero (the
+/// planner's [`crate::planner::Limits`] default to it), and the hub leaving it by more than
+/// [`RANGE_FAULT_MARGIN_RAD`] with the torque on latches [`FaultFlags::OUT_OF_RANGE`].
+pub const RANGE_RAD: f32 = core::f32::consts::PI;
+
+/// How far past [`RANGE_RAD`] (or past a move's start or end outside it: a move back into the
+/// range, a brake) the hub may go under torque before the range fault latches, rad (10 deg):
+/// room for a tracking overshoot.
+pub const RANGE_FAULT_MARGIN_RAD: f32 = 10.0 * core::f32::consts::PI / 180.0;
+
+/// The hub rate (filtered) at or below which a move may start, rad/s (about 29 deg/s). A
+/// move is planned from rest, so one commanded while the hub still coasts (after `Disable`,
+/// say) starts with the reference and the hub apart in rate and saturates the torque. A hub
+/// held at its target still dithers by an encoder count, which at 16 384 counts a turn and
+/// 1 kHz reads as up to 0.38 rad/s for a tick (0.27 rad/s measured after the filter): that
+/// is rest.
+pub const REST_RAD_S: f32 = 0.5;
 
 /// Ticks without an encoder count under substantial torque before [`FaultFlags::ENCODER_STUCK`].
 /// At a fifth of the aluminium drive's 10 N m limit the free hub (0.027 kg m^2 with the beam)
@@ -332,12 +359,16 @@ impl<const K: usize> Controller<K> {
         Ok(Self { cfg, st })
     }
 
-    /// Arms the move: the next tick starts it if the hub is at the spline's start.
+    /// Arms the move: the next tick starts it if the hub is at the spline's start. From
+    /// here on the drive counts as slewing ([`Controller::mode`]).
     pub fn start_move(&mut self) -> Result<(), CommandError> {
-        match self.st.mode {
+        match self.mode() {
             Mode::Fault => Err(CommandError::Faulted),
             Mode::Slewing => Err(CommandError::Busy),
             Mode::Idle | Mode::Holding => {
+                // The range, widened to the move's ends (a move back into it, a brake).
+                let (a, b) = (self.cfg.spline.start(), self.cfg.spline.end());
+                let (lo, hi) = (a.min(b).min(-RANGE_RAD), a.max(b).max(RANGE_RAD));
                 // The strain offset the move will use: the mean of the idle codes so far,
                 // which are exactly those the next tick (which takes the start) would see.
                 // The f64 division is software on the Cortex-M4F, so it runs here, with the
@@ -346,6 +377,7 @@ impl<const K: usize> Controller<K> {
                 if st.zero_n > 0 {
                     st.zero_mean = (st.zero_sum as f64 / st.zero_n as f64) as f32;
                 }
+                st.range = (lo - RANGE_FAULT_MARGIN_RAD, hi + RANGE_FAULT_MARGIN_RAD);
                 st.start_pending = true;
                 Ok(())
             }
@@ -353,11 +385,15 @@ impl<const K: usize> Controller<K> {
     }
 
     /// Clears latched faults and returns to `Idle` (torque off). The strain offset is measured
-    /// again from the following idle ticks.
+    /// again from the following idle ticks; the last measured angle, rate and strain stay
+    /// what they were until the next tick measures them again.
     pub fn reset(&mut self) {
-        let counter = self.st.counter;
+        let st = self.st;
         self.st = State {
-            counter,
+            counter: st.counter,
+            omega: st.omega,
+            theta: st.theta,
+            strain: st.strain,
             offset_code: self.cfg.settings.strain_offset_code as f32,
             ..State::default()
         };
@@ -365,7 +401,7 @@ impl<const K: usize> Controller<K> {
 
     /// Swaps in a new, already validated law (gains), whole. Refused while slewing.
     pub fn set_law(&mut self, law: ControlLaw) -> Result<(), CommandError> {
-        if self.st.mode == Mode::Slewing {
+        if self.mode() == Mode::Slewing {
             return Err(CommandError::Busy);
         }
         self.cfg.law = law;
@@ -375,7 +411,7 @@ impl<const K: usize> Controller<K> {
     /// Swaps in the next move (validated when it was built). Refused while slewing; the move
     /// starts with [`Controller::start_move`].
     pub fn set_spline(&mut self, spline: Spline<K>) -> Result<(), CommandError> {
-        if self.st.mode == Mode::Slewing {
+        if self.mode() == Mode::Slewing {
             return Err(CommandError::Busy);
         }
         self.cfg.spline = spline;
@@ -384,9 +420,10 @@ impl<const K: usize> Controller<K> {
 
     /// Replaces the running move, whole, by `spline`, on the same clock: the next tick
     /// evaluates it where it would have evaluated the old one. For a stop, whose spline
-    /// equals the old one up to now. Refused unless slewing.
+    /// equals the old one up to now. Refused unless slewing (or armed to: a move accepted
+    /// and not yet started is replaced before it starts).
     pub fn replace_move(&mut self, spline: Spline<K>) -> Result<(), CommandError> {
-        if self.st.mode != Mode::Slewing {
+        if self.mode() != Mode::Slewing {
             return Err(CommandError::NotMoving);
         }
         self.cfg.spline = spline;
@@ -397,8 +434,9 @@ impl<const K: usize> Controller<K> {
     /// tick's resource in a few instructions and plans from it outside).
     pub fn snapshot(&self) -> Snapshot {
         Snapshot {
-            mode: self.st.mode,
+            mode: self.mode(),
             theta_rad: self.st.theta,
+            omega_rad_s: self.st.omega,
             move_elapsed_s: self.move_elapsed_s(),
         }
     }
@@ -426,17 +464,26 @@ impl<const K: usize> Controller<K> {
         self.st.strain
     }
 
-    /// Time into the move, s (0 when idle or faulted).
+    /// Time into the move, s (0 when idle or faulted, and for a move armed but not started).
     pub fn move_elapsed_s(&self) -> f32 {
+        if self.st.start_pending {
+            return 0.0;
+        }
         match self.st.mode {
             Mode::Slewing | Mode::Holding => self.st.ticks as f32 * self.cfg.settings.ts_s,
             Mode::Idle | Mode::Fault => 0.0,
         }
     }
 
-    /// The current mode.
+    /// The current mode, as commands see it: a move armed by
+    /// [`start_move`](Self::start_move) counts as slewing from then (it starts on the next
+    /// tick), so that every later command sees the move it was answered.
     pub fn mode(&self) -> Mode {
-        self.st.mode
+        if self.st.start_pending && self.st.mode != Mode::Fault {
+            Mode::Slewing
+        } else {
+            self.st.mode
+        }
     }
 
     /// The law's own state: smc-i's integral, the LQG law's observer estimate.
@@ -596,6 +643,14 @@ impl<const K: usize> Controller<K> {
         }
         if raw.driver_fault {
             faults.insert(FaultFlags::DRIVER);
+        }
+        // Under torque only: an idle hub turned by hand is no fault. (`!(a && b)` catches a
+        // NaN angle too, though NON_FINITE already does.)
+        let (lo, hi) = self.st.range;
+        if matches!(self.st.mode, Mode::Slewing | Mode::Holding)
+            && !(x.theta >= lo && x.theta <= hi)
+        {
+            faults.insert(FaultFlags::OUT_OF_RANGE);
         }
         if !(x.theta.is_finite()
             && x.omega.is_finite()

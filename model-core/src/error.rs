@@ -133,6 +133,11 @@ pub enum PlanError {
         /// The range's high end, rad.
         max_rad: f32,
     },
+    /// The move would last longer than the planner accepts.
+    TooLong {
+        /// The longest move, s ([`crate::planner::MAX_MOVE_S`]).
+        max_s: f32,
+    },
     /// A move needs at least one waypoint (its target).
     NoWaypoints,
     /// More waypoints than a move holds.
@@ -188,6 +193,7 @@ impl fmt::Display for PlanError {
                 min_rad.to_degrees(),
                 max_rad.to_degrees()
             ),
+            PlanError::TooLong { max_s } => write!(f, "a move lasts at most {max_s} s"),
             PlanError::NoWaypoints => f.write_str("a move needs a target"),
             PlanError::TooManyWaypoints { max } => {
                 write!(f, "a move passes through at most {max} waypoints")

@@ -59,8 +59,9 @@ impl Limits {
     pub const DEFAULT_TORQUE_FRACTION: f32 = 0.6;
     /// Default speed limit, rad/s (the paper's slew peaks at 16.8).
     pub const DEFAULT_MAX_SPEED_RAD_S: f32 = 20.0;
-    /// Default range, rad: half a turn either side of the zero.
-    pub const DEFAULT_RANGE_RAD: f32 = core::f32::consts::PI;
+    /// Default range, rad: half a turn either side of the zero, the drive's
+    /// [`crate::controller::RANGE_RAD`].
+    pub const DEFAULT_RANGE_RAD: f32 = crate::controller::RANGE_RAD;
 
     /// The defaults for the plant (a [`PlantPoint`] or a [`ModalModel`]): its rigid inertia
     /// (with the payload it was built with), friction and torque limit (the drive's 10 N m
@@ -132,8 +133,8 @@ impl Limits {
     pub fn admits(&self, p: &Peaks) -> bool {
         self.planned_torque_nm(p) <= self.torque_budget_nm()
             && p.max_abs_vel <= self.max_speed_rad_s
-            && p.min_pos >= self.min_rad
-            && p.max_pos <= self.max_rad
+            && p.min_pos >= self.min_rad - PEAK_TOLERANCE_RAD
+            && p.max_pos <= self.max_rad + PEAK_TOLERANCE_RAD
     }
 
     /// The least time scale `s` (times multiplied by `s`) at which a move with peaks `p` at
@@ -236,7 +237,14 @@ pub fn plan_through(
     if !from.is_finite() || waypoints.iter().any(|w| !w.rad.is_finite()) || !times_finite {
         return Err(PlanError::NonFinite);
     }
-    for &rad in core::iter::once(&from).chain(waypoints.iter().map(|w| &w.rad)) {
+    // No move longer than MAX_MOVE_S: a given time or the last waypoint's time here, the
+    // shortest time where it is found.
+    let last_at = waypoints.last().and_then(|w| w.at_s);
+    if time_s.or(last_at).is_some_and(|t| t > MAX_MOVE_S) {
+        return Err(PlanError::TooLong { max_s: MAX_MOVE_S });
+    }
+    for w in waypoints {
+        let rad = w.rad;
         if rad < limits.min_rad || rad > limits.max_rad {
             return Err(PlanError::OutOfRange {
                 rad,
@@ -245,6 +253,23 @@ pub fn plan_through(
             });
         }
     }
+    // A hub outside the range (it coasted there with the torque off) may come back: the
+    // reference may then pass between the start and the range, never further out. (The
+    // bound on the reference's peaks is conservative by up to 1.8e-4 of the move's length:
+    // a hundredth of the way back beyond the start covers it.)
+    let limits = &Limits {
+        min_rad: if from < limits.min_rad {
+            from - 0.01 * (limits.min_rad - from)
+        } else {
+            limits.min_rad
+        },
+        max_rad: if from > limits.max_rad {
+            from + 0.01 * (from - limits.max_rad)
+        } else {
+            limits.max_rad
+        },
+        ..*limits
+    };
     let timed = waypoints.iter().filter(|w| w.at_s.is_some()).count();
     let given = timed == waypoints.len();
     if (timed != 0 && !given) || (given && time_s.is_some()) {
@@ -252,20 +277,34 @@ pub fn plan_through(
     }
     // Knot times at scale 1: the given ones, or the shortest rest-to-rest time of each
     // segment.
+    // (Indexing by `get`, here and below: no bounds-check panic on the drive's command
+    // path; the waypoint count was checked above, so the `None` arms never run.)
     let n = waypoints.len() + 1;
     let mut times = [0.0f64; PLAN_KNOTS];
     let mut positions = [from; PLAN_KNOTS];
-    for (i, w) in waypoints.iter().enumerate() {
-        positions[i + 1] = w.rad;
-        times[i + 1] = match w.at_s {
+    let too_many = PlanError::TooManyWaypoints { max: MAX_WAYPOINTS };
+    let (mut t_prev, mut p_prev) = (0.0f64, from);
+    for ((w, t), p) in waypoints
+        .iter()
+        .zip(times.iter_mut().skip(1))
+        .zip(positions.iter_mut().skip(1))
+    {
+        *p = w.rad;
+        *t = match w.at_s {
             Some(t) => t as f64,
-            None => times[i] + rest_to_rest_time(limits, (w.rad - positions[i]) as f64),
+            None => t_prev + rest_to_rest_time(limits, (w.rad - p_prev) as f64),
         };
+        (t_prev, p_prev) = (*t, *p);
     }
-    let end = times[n - 1];
-    let min_gap = times[..n]
+    let end = t_prev;
+    let min_gap = times
+        .get(..n)
+        .ok_or(too_many)?
         .windows(2)
-        .map(|w| w[1] - w[0])
+        .map(|w| match w {
+            [a, b] => b - a,
+            _ => f64::INFINITY,
+        })
         .fold(f64::INFINITY, f64::min);
     if !(min_gap >= MIN_SEGMENT_S) {
         return Err(PlanError::TimesNotIncreasing);
@@ -275,7 +314,7 @@ pub fn plan_through(
         for (k, (&t, &p)) in knots.iter_mut().zip(times.iter().zip(positions.iter())) {
             *k = ((t * scale) as f32, p);
         }
-        Plan::new(Spline::try_build(&knots[..n])?, shaper)
+        Plan::new(Spline::try_build(knots.get(..n).ok_or(too_many)?)?, shaper)
     };
     // The scale the limits need, from the unshaped plan at scale 1 (shaping with positive
     // impulses only averages the reference, so it cannot raise the peaks; the check below
@@ -285,7 +324,7 @@ pub fn plan_through(
         for (k, (&t, &p)) in knots.iter_mut().zip(times.iter().zip(positions.iter())) {
             *k = (t as f32, p);
         }
-        Spline::try_build(&knots[..n])?
+        Spline::try_build(knots.get(..n).ok_or(too_many)?)?
     };
     let trial = trial.peaks();
     // Positions do not change with the time scale (nor, beyond the ends, with shaping,
@@ -304,6 +343,10 @@ pub fn plan_through(
         // rebuilt spline could tip it over.
         let mut end_ms = libm::ceil(least * 1.001 * end * 1000.0).max(1.0);
         for _ in 0..64 {
+            // No move may last longer than MAX_MOVE_S, even at its shortest.
+            if end_ms > 1000.0 * MAX_MOVE_S as f64 {
+                return Err(PlanError::TooLong { max_s: MAX_MOVE_S });
+            }
             let plan = build(end_ms / 1000.0 / end)?;
             if limits.admits(&plan.shaped.peaks()) {
                 return Ok((end_ms / 1000.0, plan));
@@ -348,11 +391,22 @@ fn rest_to_rest_time(limits: &Limits, distance: f64) -> f64 {
         .max(limits.min_segment_s as f64)
 }
 
+/// How far the bound on a move's peak position may pass the range's end, rad (0.09 deg).
+/// The bound ([`Spline::peaks`]) is conservative by up to about 1.8e-4 of the move's
+/// length (5.5e-4 rad for the 180 deg slew, 1.1e-3 rad for -180 to +180 deg), so without it
+/// a move that comes to rest exactly on the range's end (+-180 deg) would be refused.
+pub const PEAK_TOLERANCE_RAD: f32 = 1.5e-3;
+
+/// The longest move the planner accepts, s (before shaping): a drive is not kept busy
+/// for ever by one command. At the default speed limit the whole range takes under a
+/// second; a move back into the range from a few turns away, a few seconds.
+pub const MAX_MOVE_S: f32 = 60.0;
+
 /// Refuses a move whose reference leaves the range.
 fn out_of_range(p: &Peaks, limits: &Limits) -> Result<(), PlanError> {
-    let rad = if p.min_pos < limits.min_rad {
+    let rad = if p.min_pos < limits.min_rad - PEAK_TOLERANCE_RAD {
         p.min_pos
-    } else if p.max_pos > limits.max_rad {
+    } else if p.max_pos > limits.max_rad + PEAK_TOLERANCE_RAD {
         p.max_pos
     } else {
         return Ok(());
@@ -396,16 +450,25 @@ pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanEr
             return Ok(plan.clone());
         }
         let mut cut = [(0.0f32, 0.0f32, 0.0f32, 0.0f32); BASE_KNOTS + 1];
-        cut[..kept].copy_from_slice(&states[..kept]);
-        let mut n = kept;
-        if n == 0 || cut[n - 1].0 < at {
-            cut[n] = (at, r.pos, r.vel, r.acc);
+        // (By `get`: no bounds-check panic on the drive's command path; `kept` is at most
+        // the base's knots, and `cut` holds one more.)
+        let mut n = 0;
+        for (c, s) in cut.iter_mut().zip(states.iter().take(kept)) {
+            *c = *s;
             n += 1;
         }
-        cut[n] = (at + t_ms, end, 0.0, 0.0);
-        n += 1;
+        let mut push = |state| {
+            if let Some(c) = cut.get_mut(n) {
+                *c = state;
+                n += 1;
+            }
+        };
+        if kept == 0 || states.get(kept - 1).is_some_and(|s| s.0 < at) {
+            push((at, r.pos, r.vel, r.acc));
+        }
+        push((at + t_ms, end, 0.0, 0.0));
         // The cut base has at most the base's knots before `at`, `at` and the stop's end.
-        let stopped = Spline::<BASE_KNOTS>::try_from_states(&cut[..n])?;
+        let stopped = Spline::<BASE_KNOTS>::try_from_states(cut.get(..n).unwrap_or(&[]))?;
         let p = stopped.peaks();
         if limits.planned_torque_nm(&p) <= limits.torque_budget_nm()
             && p.max_abs_vel <= limits.max_speed_rad_s.max(libm::fabsf(r.vel))
@@ -415,6 +478,24 @@ pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanEr
         t *= 1.1;
     }
     Err(PlanError::Unplannable)
+}
+
+/// Brings a hub turning freely (the torque off, after `Disable`) to rest: a reference
+/// that starts where the hub is, at its rate, and decelerates evenly as [`plan_stop`] would
+/// stop a move there, unshaped (a shaper would hold part of the reference back at the start
+/// while the hub runs on). The range is not checked: a hub outside it must be stoppable, and
+/// the drive's range fault widens to the brake's end.
+pub fn plan_brake(from: f32, rate_rad_s: f32, limits: &Limits) -> Result<Plan, PlanError> {
+    if !(from.is_finite() && rate_rad_s.is_finite()) {
+        return Err(PlanError::NonFinite);
+    }
+    // A coast that would go on at the rate for the longest move: the stop cuts it at once.
+    let coast = [
+        (0.0, from, rate_rad_s, 0.0),
+        (MAX_MOVE_S, from + rate_rad_s * MAX_MOVE_S, 0.0, 0.0),
+    ];
+    let coast = Plan::new(Spline::try_from_states(&coast)?, &Shaper::NONE)?;
+    plan_stop(&coast, 0.0, limits)
 }
 
 #[cfg(test)]
@@ -683,8 +764,14 @@ mod tests {
             match plan_through(from, &waypoints, time, &shaper, &l) {
                 Ok(plan) => {
                     let plan = plan.shaped;
+                    // The targets within the range; the reference within it too, or
+                    // between the range and a start outside it (a move back into it).
                     let in_range = |x: f32| x >= l.min_rad && x <= l.max_rad;
-                    prop_assert!(in_range(from) && targets.iter().all(|&t| in_range(t)));
+                    prop_assert!(targets.iter().all(|&t| in_range(t)));
+                    let (lo, hi) = (l.min_rad.min(from), l.max_rad.max(from));
+                    let in_range = |x: f32| {
+                        x >= lo - PEAK_TOLERANCE_RAD && x <= hi + PEAK_TOLERANCE_RAD
+                    };
                     let steps = 20_000;
                     for k in 0..=steps {
                         let r = plan.eval(k as f32 * plan.duration_s() / steps as f32);
@@ -716,6 +803,12 @@ mod tests {
                     prop_assert!(again.is_ok(), "{again:?}");
                 }
                 Err(PlanError::OutOfRange { .. }) => {}
+                // Only waypoints so close in time that, slowed to keep the limits, they
+                // would last longer than the longest move (a given time here is 2 s at most).
+                Err(PlanError::TooLong { max_s }) => {
+                    prop_assert_eq!(max_s, MAX_MOVE_S);
+                    prop_assert!(gaps.is_some());
+                }
                 Err(PlanError::TimesNotIncreasing) => {
                     prop_assert!(gaps.is_some_and(|g| g.iter().any(|&x| x < 1e-3)));
                 }

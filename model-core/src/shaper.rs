@@ -128,15 +128,21 @@ pub struct Impulses {
 impl Impulses {
     /// `(amplitude, time_s)` of each impulse.
     pub fn iter(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
-        self.amps[..self.len]
+        // (`take`, not slicing: no bounds-check panic on the drive's command path.)
+        self.amps
             .iter()
             .copied()
-            .zip(self.times[..self.len].iter().copied())
+            .zip(self.times.iter().copied())
+            .take(self.len)
     }
 
     /// The time of the last impulse: how much the shaper lengthens a move, s.
     pub fn duration_s(&self) -> f64 {
-        self.times[self.len - 1]
+        self.len
+            .checked_sub(1)
+            .and_then(|i| self.times.get(i))
+            .copied()
+            .unwrap_or(0.0)
     }
 
     /// The residual vibration a unit step shaped by these impulses leaves in a mode of
@@ -291,14 +297,21 @@ fn merge_breaks(breaks: &mut [f64]) -> usize {
     let Some(&last) = breaks.last() else {
         return 0;
     };
-    let mut n = 0;
+    // (By `get`: no bounds-check panic on the drive's command path; `n <= i` throughout.)
+    let mut n = 0usize;
     for i in 0..breaks.len() {
-        if n == 0 || breaks[i] - breaks[n - 1] >= MIN_BREAK_S {
-            breaks[n] = breaks[i];
+        let b = breaks.get(i).copied().unwrap_or(last);
+        let kept = n.checked_sub(1).and_then(|k| breaks.get(k)).copied();
+        if kept.is_none_or(|k| b - k >= MIN_BREAK_S) {
+            if let Some(slot) = breaks.get_mut(n) {
+                *slot = b;
+            }
             n += 1;
         }
     }
-    breaks[n - 1] = last;
+    if let Some(slot) = n.checked_sub(1).and_then(|k| breaks.get_mut(k)) {
+        *slot = last;
+    }
     n
 }
 
@@ -325,7 +338,7 @@ pub fn shape<const K: usize, const K2: usize>(
             count += 1;
         }
     }
-    let n = merge_breaks(&mut all[..count]);
+    let n = merge_breaks(all.get_mut(..count).unwrap_or(&mut []));
     if n > K2 {
         return Err(ShaperError::Spline(SplineError::TooManyKnots {
             capacity: K2,

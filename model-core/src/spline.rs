@@ -73,22 +73,25 @@ impl<const K: usize> Spline<K> {
     /// A spline through `knots` given as `(time_s, position_rad)`, starting at t = 0.
     pub fn try_build(knots: &[(f32, f32)]) -> Result<Self, SplineError> {
         let n = knots.len();
-        Self::check(n, |i| (knots[i].0, knots[i].1.is_finite()))?;
+        // By `get`: no bounds-check panic on the drive's command path (every index is below
+        // `n`, which `check` has bounded).
+        let knot = |i: usize| knots.get(i).copied().unwrap_or((0.0, 0.0));
+        Self::check(n, |i| (knot(i).0, knot(i).1.is_finite()))?;
         // Knot velocities and accelerations: rest at the ends, central differences inside.
-        let slope = |i: usize| (knots[i + 1].1 - knots[i].1) / (knots[i + 1].0 - knots[i].0);
+        let slope = |i: usize| (knot(i + 1).1 - knot(i).1) / (knot(i + 1).0 - knot(i).0);
         let vel_acc = |i: usize| -> (f32, f32) {
             if i == 0 || i == n - 1 {
                 return (0.0, 0.0);
             }
-            let span = knots[i + 1].0 - knots[i - 1].0;
-            let v = (knots[i + 1].1 - knots[i - 1].1) / span;
+            let span = knot(i + 1).0 - knot(i - 1).0;
+            let v = (knot(i + 1).1 - knot(i - 1).1) / span;
             let a = 2.0 * (slope(i) - slope(i - 1)) / span;
             (v, a)
         };
         let mut segments = Vec::new();
         for i in 0..n - 1 {
-            let (t0, p0) = knots[i];
-            let (t1, p1) = knots[i + 1];
+            let (t0, p0) = knot(i);
+            let (t1, p1) = knot(i + 1);
             let (v0, a0) = vel_acc(i);
             let (v1, a1) = vel_acc(i + 1);
             // Capacity K holds K knots, so K - 1 segments always fit.
@@ -96,9 +99,9 @@ impl<const K: usize> Spline<K> {
         }
         Ok(Self {
             segments,
-            start: knots[0].1,
-            end: knots[n - 1].1,
-            duration_s: knots[n - 1].0,
+            start: knot(0).1,
+            end: knot(n - 1).1,
+            duration_s: knot(n - 1).0,
         })
     }
 
@@ -108,19 +111,22 @@ impl<const K: usize> Spline<K> {
     /// exactly. Starts at t = 0; the first and last states should be at rest.
     pub fn try_from_states(states: &[(f32, f32, f32, f32)]) -> Result<Self, SplineError> {
         let n = states.len();
+        // By `get`: no bounds-check panic on the drive's command path.
+        let state = |i: usize| states.get(i).copied().unwrap_or_default();
         Self::check(n, |i| {
-            let (t, p, v, a) = states[i];
+            let (t, p, v, a) = state(i);
             (t, p.is_finite() && v.is_finite() && a.is_finite())
         })?;
         let mut segments = Vec::new();
-        for w in states.windows(2) {
-            let _ = segments.push(Segment::hermite(w[0], w[1]));
+        for (a, b) in states.iter().zip(states.iter().skip(1)) {
+            let _ = segments.push(Segment::hermite(*a, *b));
         }
+        let last = state(n.saturating_sub(1));
         Ok(Self {
             segments,
-            start: states[0].1,
-            end: states[n - 1].1,
-            duration_s: states[n - 1].0,
+            start: state(0).1,
+            end: last.1,
+            duration_s: last.0,
         })
     }
 

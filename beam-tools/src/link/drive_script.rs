@@ -28,8 +28,22 @@ pub struct ScriptError {
 /// Longest wait a script may ask for, s.
 const MAX_WAIT_S: f64 = 600.0;
 
-/// Reads a script.
+/// Longest piece of a script's text an error message quotes, characters.
+const QUOTED_CHARS: usize = 24;
+
+/// A word of the script as an error message quotes it: escaped (no control characters or
+/// terminal escapes reach the terminal) and cut to [`QUOTED_CHARS`].
+fn quoted(word: &str) -> String {
+    let mut out: String = word.chars().take(QUOTED_CHARS).collect();
+    if word.chars().count() > QUOTED_CHARS {
+        out.push_str("...");
+    }
+    out.escape_debug().to_string()
+}
+
+/// Reads a script (a UTF-8 byte-order mark at its start is skipped).
 pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut steps = vec![];
     for (i, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
@@ -44,11 +58,11 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
         let arg = |k: usize, what: &str| -> Result<f64, ScriptError> {
             let w = words
                 .get(k)
-                .ok_or_else(|| err(format!("`{}` needs {what}", words[0])))?;
+                .ok_or_else(|| err(format!("`{}` needs {what}", quoted(words[0]))))?;
             w.parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| err(format!("`{w}` is not a number ({what})")))
+                .ok_or_else(|| err(format!("`{}` is not a number ({what})", quoted(w))))
         };
         let time = |k: usize| -> Result<Option<f32>, ScriptError> {
             match words.get(k) {
@@ -65,7 +79,10 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
         };
         let nargs = |max: usize| {
             if words.len() > max + 1 {
-                Err(err(format!("`{}` takes at most {max} arguments", words[0])))
+                Err(err(format!(
+                    "`{}` takes at most {max} arguments",
+                    quoted(words[0])
+                )))
             } else {
                 Ok(())
             }
@@ -89,7 +106,7 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
                         .parse()
                         .ok()
                         .filter(|x: &f64| x.is_finite())
-                        .ok_or_else(|| err(format!("`{a}` is not an angle")))?;
+                        .ok_or_else(|| err(format!("`{}` is not an angle", quoted(a))))?;
                     waypoints
                         .push(Waypoint {
                             rad: deg.to_radians() as f32,
@@ -164,7 +181,7 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
                 }
                 Step::AmpFault(n as u32)
             }
-            other => return Err(err(format!("unknown command `{other}`"))),
+            other => return Err(err(format!("unknown command `{}`", quoted(other)))),
         };
         steps.push(step);
     }
@@ -213,5 +230,23 @@ mod tests {
             assert_eq!(e.line, 2, "{text}");
             assert!(e.message.contains(says), "{text}: {e}");
         }
+    }
+
+    #[test]
+    fn errors_quote_the_script_escaped_and_bounded_and_a_byte_order_mark_is_skipped() {
+        // A script saved with a BOM reads as without.
+        assert_eq!(
+            parse("\u{feff}status\n").unwrap(),
+            parse("status\n").unwrap()
+        );
+        // A megabyte word: the message stays short.
+        let long = "x".repeat(1 << 20);
+        let e = parse(&long).unwrap_err().to_string();
+        assert!(e.len() < 100, "{} bytes", e.len());
+        assert!(e.contains("..."), "{e}");
+        // Terminal escapes and other control bytes are escaped, not printed raw.
+        let e = parse("\u{1b}[2Jmove 1\n").unwrap_err().to_string();
+        assert!(!e.contains('\u{1b}'), "{e:?}");
+        assert!(e.contains("\\u{1b}"), "{e}");
     }
 }

@@ -90,7 +90,7 @@ pub struct PilDrive {
     reader: FrameReader,
     seq: u32,
     settings: ControllerSettings,
-    faults: u8,
+    faults: u16,
     /// What was sent and received each tick, for the replay.
     record: Vec<(RawMeasurement, bool, CommandFrame)>,
 }

@@ -99,6 +99,9 @@ impl<P: Read + Write> SerialDrive<P> {
         };
         let mut buf = [0u8; MAX_FRAME + 1];
         let frame = encode(&request, &mut buf).map_err(LinkError::Encode)?;
+        // A delimiter first: it ends whatever stray bytes the line carried before (the
+        // drive skips the empty frame it makes), so they cannot spoil this request.
+        self.port.write_all(&[0])?;
         self.port.write_all(frame)?;
         self.port.flush()?;
         let deadline = Instant::now() + self.timeout;

@@ -311,3 +311,76 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn a_hub_leaving_the_range_under_torque_latches_out_of_range_but_not_while_idle() {
+    let s = ControllerSettings::default();
+    let raw_at = |theta: f32| {
+        let count = ((theta - s.theta_home_rad) / s.encoder.rad_per_count() as f32).round();
+        RawMeasurement {
+            encoder_raw: (count as i64 as u32) & s.encoder.mask(),
+            ..Default::default()
+        }
+    };
+    // The move runs -90 to +90 deg; the hub is then pushed on (as by a load) in steps the
+    // encoder accepts, up to 200 deg.
+    let mut c = controller(Law::Pd(PdGains::BASELINE));
+    c.step(&on_reference(&c, 0));
+    c.start_move().unwrap();
+    for k in 0..=400 {
+        c.step(&on_reference(&c, k));
+    }
+    assert_eq!(c.mode(), Mode::Holding);
+    let limit = RANGE_RAD + RANGE_FAULT_MARGIN_RAD;
+    let mut theta = core::f32::consts::FRAC_PI_2;
+    while theta < 200f32.to_radians() {
+        theta += 0.005;
+        let out = c.step(&raw_at(theta));
+        if theta < limit - 0.01 {
+            assert!(
+                out.faults.is_empty(),
+                "{} deg: {}",
+                theta.to_degrees(),
+                out.faults
+            );
+        }
+        if theta > limit + 0.01 {
+            assert!(
+                out.faults.contains(FaultFlags::OUT_OF_RANGE),
+                "{}",
+                out.faults
+            );
+            assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
+        }
+    }
+    // Idle (torque off), a hub turned far out by hand is no fault.
+    let mut c = controller(Law::Pd(PdGains::BASELINE));
+    let mut theta = 0.0f32;
+    while theta < 400f32.to_radians() {
+        theta += 0.005;
+        assert!(c.step(&raw_at(theta)).faults.is_empty());
+    }
+}
+
+#[test]
+fn a_move_armed_counts_as_slewing_and_clearing_keeps_the_last_angle() {
+    let mut c = controller(Law::Pd(PdGains::BASELINE));
+    c.step(&on_reference(&c, 0));
+    let theta = c.theta_rad();
+    c.start_move().unwrap();
+    // Before the next tick: slewing for every command, at the move's start.
+    assert_eq!(c.mode(), Mode::Slewing);
+    assert_eq!(c.snapshot().mode, Mode::Slewing);
+    assert_eq!(c.move_elapsed_s(), 0.0);
+    assert_eq!(c.start_move(), Err(CommandError::Busy));
+    let rest = Spline::quintic(0.0, 0.0, 1.0).unwrap();
+    assert_eq!(c.set_spline(rest), Err(CommandError::Busy));
+    // Disabling drops the armed move.
+    c.disable();
+    assert_eq!(c.mode(), Mode::Idle);
+    // A reset keeps the last measured angle (it is -90 deg here, not the zero).
+    assert!(theta < -1.5);
+    c.reset();
+    assert_eq!(c.theta_rad(), theta);
+    assert_eq!(c.snapshot().theta_rad, theta);
+}

@@ -76,9 +76,41 @@ pub struct DriveArgs {
     /// Do not count instructions (PIL).
     #[arg(long)]
     no_insn_count: bool,
+    /// How long `done` waits for a move to end before it gives up, s.
+    #[arg(long, value_name = "S", default_value_t = 60.0, value_parser = done_max)]
+    done_max: f64,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+}
+
+/// `--done-max`: 0.01 s to an hour.
+fn done_max(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if (0.01..=3600.0).contains(&s) => Ok(s),
+        _ => Err(format!("`{text}` is not 0.01 to 3600 s")),
+    }
+}
+
+/// Simulated time a `--sim` or `--pil` script may ask for at most, s: its waits, and each
+/// `done`'s limit and settling, summed (the run keeps every tick, 32 bytes each).
+const MAX_SIM_S: f64 = 1800.0;
+
+/// The drive refused `0` of the script's commands (every exchange was printed): `beam drive`
+/// exits with code 1 for it, where usage and link errors exit with 2.
+#[derive(Debug, thiserror::Error)]
+#[error("the drive refused {0} command(s)")]
+pub struct Refused(pub usize);
+
+/// Refusals among the replies: the script's result when there are any.
+fn refusals<'a>(outcomes: impl Iterator<Item = &'a Outcome>) -> anyhow::Result<()> {
+    let n = outcomes
+        .filter(|o| matches!(o, Outcome::Refused(_)))
+        .count();
+    if n > 0 {
+        return Err(Refused(n).into());
+    }
+    Ok(())
 }
 
 /// One accepted move's outcome: where it was going, and how the beam was 0.25 s after its
@@ -121,8 +153,39 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         }
         _ => bail!("give the commands: --script FILE (or -), --session, or on the command line"),
     };
+    // `done` waits as long as --done-max says.
+    let script: Vec<Step> = script
+        .into_iter()
+        .map(|step| match step {
+            Step::UntilDone { settle_s, .. } => Step::UntilDone {
+                settle_s,
+                max_s: a.done_max,
+            },
+            other => other,
+        })
+        .collect();
     if let Some(port) = &a.port {
+        // Checked whole before anything reaches the drive.
+        if let Some(i) = script
+            .iter()
+            .position(|s| matches!(s, Step::Attach(_) | Step::AmpFault(_)))
+        {
+            bail!("step {}: `attach` and `fault` act on the simulated beam; they have no meaning with --port (nothing was sent)", i + 1);
+        }
         return run_port(a, port, &script);
+    }
+    let asked: f64 = script
+        .iter()
+        .map(|s| match s {
+            Step::Wait(t) => *t,
+            Step::UntilDone { settle_s, max_s } => settle_s + max_s,
+            _ => 0.0,
+        })
+        .sum();
+    if asked > MAX_SIM_S {
+        bail!(
+            "the script may take {asked:.0} s of simulated time (waits, and each `done`'s --done-max and settling); at most {MAX_SIM_S} s"
+        );
     }
     // The simulated beam is the plant the drive was built for (the compiled table's), with
     // the payload on it.
@@ -245,7 +308,7 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
     if let Some((false, ulps, _)) = pil {
         bail!("the PIL drive differs from the host build ({ulps} ulps)");
     }
-    Ok(())
+    refusals(run.exchanges.iter().map(|e| &e.reply.outcome))
 }
 
 /// A request in the script's words.
@@ -282,19 +345,23 @@ fn move_results(run: &CommandedRun, settle: &SettleSpec) -> Vec<MoveResult> {
         }
         _ => None,
     };
-    let starts: Vec<f64> = run
+    // Each accepted move's place in the exchanges and its time.
+    let starts: Vec<(usize, f64)> = run
         .exchanges
         .iter()
-        .filter(|e| matches!(e.reply.outcome, Outcome::Moving { .. }))
-        .map(|e| e.t)
+        .enumerate()
+        .filter(|(_, e)| matches!(e.reply.outcome, Outcome::Moving { .. }))
+        .map(|(i, e)| (i, e.t))
         .collect();
     run.exchanges
         .iter()
-        .filter_map(|e| match e.reply.outcome {
+        .enumerate()
+        .filter_map(|(i, e)| match e.reply.outcome {
             Outcome::Moving { duration_s } => {
                 let end_s = e.t + duration_s as f64;
-                // A move cut short by a stop: the stop's own line reports the rest.
-                if starts.iter().any(|&t| t > e.t && t < end_s) {
+                // A move cut short by a stop (answered later, perhaps on the same tick):
+                // the stop's own line reports the rest.
+                if starts.iter().any(|&(j, t)| j > i && t < end_s) {
                     return Some(MoveResult {
                         command: format!("{} (stopped)", describe(&e.request)),
                         target_deg: None,
@@ -309,9 +376,8 @@ fn move_results(run: &CommandedRun, settle: &SettleSpec) -> Vec<MoveResult> {
                 // Settled before the next move's command (or the run's end).
                 let until = starts
                     .iter()
-                    .copied()
-                    .find(|&t| t > e.t)
-                    .unwrap_or(f64::INFINITY);
+                    .find(|&&(j, _)| j > i)
+                    .map_or(f64::INFINITY, |&(_, t)| t);
                 Some(MoveResult {
                     command: describe(&e.request),
                     target_deg,
@@ -346,31 +412,53 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
     }
     let start = Instant::now();
     let mut exchanges = vec![];
-    for step in script {
-        match step {
-            Step::Send(command) => {
-                let (request, reply) = drive.request(command.clone())?;
-                exchanges.push((start.elapsed().as_secs_f64(), request, reply));
-            }
-            Step::Wait(s) => drive.listen(Duration::from_secs_f64(*s))?,
-            Step::UntilDone { settle_s, max_s } => {
-                let until = Instant::now() + Duration::from_secs_f64(*max_s);
-                loop {
-                    let (_, reply) = drive.request(Command::Status)?;
-                    match reply.outcome {
-                        Outcome::Status(s) if s.mode != model_core::Mode::Slewing as u8 => break,
-                        _ if Instant::now() > until => {
-                            bail!("the move did not end within {max_s} s")
-                        }
-                        _ => drive.listen(Duration::from_millis(20))?,
-                    }
+    let mut steps = || -> anyhow::Result<()> {
+        for step in script {
+            match step {
+                Step::Send(command) => {
+                    let (request, reply) = drive.request(command.clone())?;
+                    exchanges.push((start.elapsed().as_secs_f64(), request, reply));
                 }
-                drive.listen(Duration::from_secs_f64(*settle_s))?;
-            }
-            Step::Attach(_) | Step::AmpFault(_) => {
-                bail!("`attach` and `fault` act on the simulated beam; they have no meaning with --port")
+                Step::Wait(s) => drive.listen(Duration::from_secs_f64(*s))?,
+                Step::UntilDone { settle_s, max_s } => {
+                    let until = Instant::now() + Duration::from_secs_f64(*max_s);
+                    loop {
+                        let (_, reply) = drive.request(Command::Status)?;
+                        match reply.outcome {
+                            Outcome::Status(s) if s.mode != model_core::Mode::Slewing as u8 => {
+                                break
+                            }
+                            _ if Instant::now() > until => {
+                                bail!("the move did not end within {max_s} s (--done-max)")
+                            }
+                            _ => drive.listen(Duration::from_millis(20))?,
+                        }
+                    }
+                    drive.listen(Duration::from_secs_f64(*settle_s))?;
+                }
+                // Refused in `run`, before the port was opened.
+                Step::Attach(_) | Step::AmpFault(_) => {
+                    bail!("`attach` and `fault` have no meaning with --port")
+                }
             }
         }
+        Ok(())
+    };
+    if let Err(e) = steps() {
+        // What already ran on the drive, then the error.
+        for (t, request, reply) in &exchanges {
+            println!(
+                "{:8.3} s  #{:<3} {:<28} -> {:?}",
+                t,
+                request.seq,
+                describe(request),
+                reply.outcome
+            );
+        }
+        return Err(e.context(format!(
+            "after {} exchange(s) with the drive",
+            exchanges.len()
+        )));
     }
     let records = drive.take_records();
     if let Some(path) = &a.record {
@@ -433,5 +521,5 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
             drive.bad_frames()
         );
     }
-    Ok(())
+    refusals(exchanges.iter().map(|(_, _, reply)| &reply.outcome))
 }

@@ -13,7 +13,8 @@
 //! - `beam replay`: a model against a log (hub prescribed, and torque open loop).
 //!
 //! `--json` prints one JSON object on stdout. Every error prints one line on stderr and
-//! exits with code 2.
+//! exits with code 2; `beam drive` exits with code 1 when the drive refused a command (after
+//! printing every exchange).
 #![forbid(unsafe_code)]
 
 /// Calls `$f::<N>` with the runtime mode count `$n` (1 to 4) as a const generic.
@@ -567,6 +568,10 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<drive_cmd::Refused>().is_some() => {
+            eprintln!("beam: {e}");
+            ExitCode::from(1)
+        }
         Err(e) => {
             // The error and its causes, `outer: inner`, on one line whatever the source's
             // message looks like (TOML's spans several).
