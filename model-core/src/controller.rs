@@ -232,8 +232,9 @@ struct State {
     zero_mean: f32,
     offset_code: f32,
     start_pending: bool,
-    /// The angles the hub may reach under torque in this move (set when it is armed):
-    /// [`RANGE_RAD`], widened to the move's start and end, plus [`RANGE_FAULT_MARGIN_RAD`].
+    /// The angles the hub may reach under torque in this move (set when it is armed), as
+    /// centre and half-width: [`RANGE_RAD`], widened to the move's start and end, plus
+    /// [`RANGE_FAULT_MARGIN_RAD`].
     range: (f32, f32),
     ticks: u32,
     /// Consecutive ticks with no count change under substantial torque.
@@ -377,7 +378,8 @@ impl<const K: usize> Controller<K> {
                 if st.zero_n > 0 {
                     st.zero_mean = (st.zero_sum as f64 / st.zero_n as f64) as f32;
                 }
-                st.range = (lo - RANGE_FAULT_MARGIN_RAD, hi + RANGE_FAULT_MARGIN_RAD);
+                // As centre and half-width: one comparison a tick.
+                st.range = ((lo + hi) / 2.0, (hi - lo) / 2.0 + RANGE_FAULT_MARGIN_RAD);
                 st.start_pending = true;
                 Ok(())
             }
@@ -533,7 +535,7 @@ impl<const K: usize> Controller<K> {
             self.st.faults.insert(faults);
             self.st.mode = Mode::Fault;
         }
-        let reference = self.advance();
+        let reference = self.advance(x.theta);
         let torque_nm = self.command(&x, reference.as_ref(), hub.delta);
         TorqueCommand {
             torque_nm,
@@ -586,7 +588,10 @@ impl<const K: usize> Controller<K> {
     fn take_start(&mut self, theta: f32) -> FaultFlags {
         let (cfg, st) = (&self.cfg, &mut self.st);
         let mut faults = FaultFlags::default();
-        if st.start_pending && st.mode != Mode::Fault {
+        // A start is armed only outside the Fault mode (`start_move` refuses there) and this
+        // stage, the first after the command, takes it before any fault of this tick can
+        // latch: no mode check is needed.
+        if st.start_pending {
             st.start_pending = false;
             if libm::fabsf(theta - cfg.spline.start()) > cfg.settings.start_tolerance_rad {
                 faults.insert(FaultFlags::START_MISMATCH);
@@ -644,19 +649,10 @@ impl<const K: usize> Controller<K> {
         if raw.driver_fault {
             faults.insert(FaultFlags::DRIVER);
         }
-        // Under torque only: an idle hub turned by hand is no fault. (`!(a && b)` catches a
-        // NaN angle too, though NON_FINITE already does.)
-        let (lo, hi) = self.st.range;
-        if matches!(self.st.mode, Mode::Slewing | Mode::Holding)
-            && !(x.theta >= lo && x.theta <= hi)
-        {
-            faults.insert(FaultFlags::OUT_OF_RANGE);
-        }
-        if !(x.theta.is_finite()
-            && x.omega.is_finite()
-            && x.strain.is_finite()
-            && x.strain_rate.is_finite())
-        {
+        // The angle is finite by construction (a validated home plus an integer count, below
+        // 2^63, times a validated step: `angle_rad`), so it is not tested here; under torque
+        // the range check in `advance` would catch it all the same.
+        if !(x.omega.is_finite() && x.strain.is_finite() && x.strain_rate.is_finite()) {
             faults.insert(FaultFlags::NON_FINITE);
         }
         faults
@@ -664,11 +660,21 @@ impl<const K: usize> Controller<K> {
 
     /// Stage 5: while Slewing or Holding, the reference point of this tick; the move's
     /// clock advances, and Slewing becomes Holding once the move's time is up. `None` in the
-    /// Idle and Fault modes (no torque).
+    /// Idle and Fault modes (no torque), and when the hub has left the move's range
+    /// (`st.range`, set when the move was armed), which latches
+    /// [`FaultFlags::OUT_OF_RANGE`]: checked here, under torque only (an idle hub turned by
+    /// hand is no fault), where the mode is known already.
     #[inline(always)]
-    fn advance(&mut self) -> Option<RefPoint> {
+    fn advance(&mut self, theta: f32) -> Option<RefPoint> {
         let (cfg, st) = (&self.cfg, &mut self.st);
         if !matches!(st.mode, Mode::Slewing | Mode::Holding) {
+            return None;
+        }
+        // `!(a <= b)`: a NaN angle fails it too (NON_FINITE has latched already then).
+        let (centre, half) = st.range;
+        if !(libm::fabsf(theta - centre) <= half) {
+            st.faults.insert(FaultFlags::OUT_OF_RANGE);
+            st.mode = Mode::Fault;
             return None;
         }
         let t = st.ticks as f32 * cfg.settings.ts_s;

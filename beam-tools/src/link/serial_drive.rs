@@ -105,6 +105,10 @@ impl<P: Read + Write> SerialDrive<P> {
         self.port.write_all(frame)?;
         self.port.flush()?;
         let deadline = Instant::now() + self.timeout;
+        // A frame the drive could not read is answered with sequence 0: it may be ours, or
+        // stray bytes the line carried before it (which our leading delimiter cut off into
+        // a frame of their own). Ours is known only when no reply to it comes.
+        let mut rejected = None;
         while Instant::now() < deadline {
             for up in self.read_some()? {
                 match up {
@@ -112,21 +116,22 @@ impl<P: Read + Write> SerialDrive<P> {
                     Uplink::Reply(Reply {
                         seq: 0,
                         outcome: beam_wire::command::Outcome::BadFrame(error),
-                    }) => {
-                        return Err(LinkError::Rejected {
-                            seq: request.seq,
-                            error,
-                        })
-                    }
+                    }) => rejected = Some(error),
                     // A late reply to an earlier request: not ours.
                     Uplink::Reply(_) => {}
                     Uplink::Record(r) => self.records.push(r),
                 }
             }
         }
-        Err(LinkError::Timeout {
-            seq: request.seq,
-            timeout_ms: self.timeout.as_millis() as u64,
+        Err(match rejected {
+            Some(error) => LinkError::Rejected {
+                seq: request.seq,
+                error,
+            },
+            None => LinkError::Timeout {
+                seq: request.seq,
+                timeout_ms: self.timeout.as_millis() as u64,
+            },
         })
     }
 
