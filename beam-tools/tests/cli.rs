@@ -1164,3 +1164,137 @@ fn calibrate_by_default_splits_and_says_when_a_result_sits_on_a_bound_or_logs_di
     assert_eq!(at["name"], "ei_nm2", "{v}");
     assert_eq!(at["side"], "upper", "{v}");
 }
+
+#[test]
+fn calibrate_cuts_a_log_of_several_moves_and_by_time_and_drops_an_unwired_gauge() {
+    let dir = scratch("calibrate-cuts");
+    let (a, b) = (dir.join("a.csv"), dir.join("b.csv"));
+    let sim = |path: &PathBuf, extra: &[&str]| {
+        let mut args = vec![
+            "simulate",
+            "--controller",
+            "pd",
+            "--duration",
+            "1.5",
+            "--csv",
+            path.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        assert!(beam(&args).status.success());
+    };
+    sim(&a, &[]);
+    sim(&b, &["--from", "90", "--move", "-60", "--time", "0.3"]);
+    // One log of both moves, the second's clock continued (a rig's 3 s log).
+    let (ta, tb) = (
+        std::fs::read_to_string(&a).unwrap(),
+        std::fs::read_to_string(&b).unwrap(),
+    );
+    let last_t: f64 = ta
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let mut both = ta.clone();
+    for line in tb.lines().skip(1) {
+        let (t, rest) = line.split_once(',').unwrap();
+        let t: f64 = t.parse().unwrap();
+        both.push_str(&format!("{},{rest}\n", t + last_t + 1e-3));
+    }
+    let multi = dir.join("multi.csv");
+    std::fs::write(&multi, &both).unwrap();
+    let m = multi.to_str().unwrap();
+    let v = json(&beam(&["calibrate", m, "--evals", "30", "--json"]));
+    let logs: Vec<&str> = v["logs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l["log"].as_str().unwrap())
+        .collect();
+    assert_eq!(logs.len(), 2, "{logs:?}");
+    assert!(logs[0].contains("move 1 of 2") && logs[1].contains("move 2 of 2"));
+    // The second move starts 1.5 s into the log: its cut begins after the first move's
+    // settling, with its rest kept, and the first mode comes out as the beam's (5.48 Hz).
+    let starts: Vec<f64> = v["logs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l["windows_s"][0].as_f64().unwrap())
+        .collect();
+    assert!(starts[1] >= 0.1, "{starts:?}");
+    let hz = v["identified"]["clamped_hz"][0].as_f64().unwrap();
+    assert!((hz / 5.4825 - 1.0).abs() < 0.01, "{hz}");
+    // The first move starts at once in the log: too little rest, said so.
+    let warnings = v["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("move 1 of 2")
+                && w.as_str().unwrap().contains("rest")),
+        "{warnings:?}"
+    );
+    // Cut by time to the second move alone: one log, named as the file.
+    let v = json(&beam(&[
+        "calibrate",
+        m,
+        "--from",
+        "1.3",
+        "--evals",
+        "30",
+        "--json",
+    ]));
+    assert_eq!(v["logs"].as_array().unwrap().len(), 1);
+    assert_eq!(v["logs"][0]["log"], m);
+    // A mid-span gauge that reads zero throughout is not measured.
+    let header = ta.lines().next().unwrap();
+    let mid = header.split(',').position(|c| c == "mid_strain").unwrap();
+    let zeroed: String = ta
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return format!("{l}\n");
+            }
+            let mut f: Vec<&str> = l.split(',').collect();
+            f[mid] = "0";
+            format!("{}\n", f.join(","))
+        })
+        .collect();
+    let z = dir.join("zero-mid.csv");
+    std::fs::write(&z, zeroed).unwrap();
+    let v = json(&beam(&[
+        "calibrate",
+        z.to_str().unwrap(),
+        "--evals",
+        "30",
+        "--json",
+    ]));
+    assert!(
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("not measured")),
+        "{v}"
+    );
+    // Bad cuts are usage errors in one line.
+    for (args, says) in [
+        (
+            vec!["calibrate", m, "--from", "2", "--to", "1"],
+            "before --to",
+        ),
+        (vec!["calibrate", m, "--from", "2.99"], "samples"),
+        (
+            vec!["calibrate", m, "--windows", "0,0.3,0.6"],
+            "holds 2 moves",
+        ),
+    ] {
+        let out = beam(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}

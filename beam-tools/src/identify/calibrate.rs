@@ -103,7 +103,7 @@ pub enum LogProblem {
     #[error("{0} samples: at least 100 (0.1 s at 1 kHz) are needed")]
     TooShort(usize),
     /// The log stops before the hub has settled after the move.
-    #[error("the log ends {0:.3} s after the move: at least 0.05 s of settling is needed")]
+    #[error("the log ends {0:.3} s after the move: at least 0.05 s of settling is needed (log longer, or end the log before a move that is cut off: --to)")]
     EndsEarly(f64),
     /// The hub hardly moves in the log.
     #[error("the hub moves only {0:.4} rad in the log: no move to calibrate on")]
@@ -358,6 +358,139 @@ pub fn read_log_with(text: &str, file: &str, columns: &Columns) -> Result<Log, L
         return Err(err(Some(k + 3), LogProblem::NonUniform));
     }
     Ok(log)
+}
+
+impl Log {
+    /// The samples logged from `from_s` to `to_s` (s on the log's own clock, either end
+    /// open), or why too few remain.
+    pub fn between(&self, from_s: Option<f64>, to_s: Option<f64>) -> Result<Log, LogProblem> {
+        let keep = |t: f64| from_s.is_none_or(|f| t >= f) && to_s.is_none_or(|e| t <= e);
+        let pick = |v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .zip(&self.t)
+                .filter(|(_, &t)| keep(t))
+                .map(|(x, _)| *x)
+                .collect()
+        };
+        let log = Log {
+            t: pick(&self.t),
+            torque: pick(&self.torque),
+            theta: pick(&self.theta),
+            root_strain: pick(&self.root_strain),
+            mid_strain: self.mid_strain.as_deref().map(pick),
+        };
+        if log.t.len() < 100 {
+            return Err(LogProblem::TooShort(log.t.len()));
+        }
+        Ok(log)
+    }
+
+    /// The samples `range` (indices).
+    fn slice(&self, range: std::ops::Range<usize>) -> Log {
+        Log {
+            t: self.t[range.clone()].to_vec(),
+            torque: self.torque[range.clone()].to_vec(),
+            theta: self.theta[range.clone()].to_vec(),
+            root_strain: self.root_strain[range.clone()].to_vec(),
+            mid_strain: self.mid_strain.as_ref().map(|m| m[range].to_vec()),
+        }
+    }
+
+    /// A mid-span column that reads zero throughout is a gauge that was not fitted (or not
+    /// wired): it is dropped, not fitted as a measured zero. True if it was.
+    pub fn drop_unmeasured_mid(&mut self) -> bool {
+        if self
+            .mid_strain
+            .as_ref()
+            .is_some_and(|m| m.iter().all(|&x| x == 0.0))
+        {
+            self.mid_strain = None;
+            return true;
+        }
+        false
+    }
+}
+
+/// Rest the calibration wants before each move, s: the split's start-up treatment takes the
+/// beam as at rest before the hub moves, and a log cut a few milliseconds before the move
+/// kicks the model beam (on the other rig's steps: -4.1 / +2.6 % in the first mode as cut,
+/// within 0.7 % with 0.1 s of rest).
+pub const REST_BEFORE_S: f64 = 0.1;
+
+/// Pauses shorter than this inside a move (the hub slowing through a reversal, a settling
+/// swing) do not split it, s.
+const MOVE_GAP_S: f64 = 0.3;
+
+/// One move cut from a log that holds several.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MoveCut {
+    /// The move's samples: from up to twice [`REST_BEFORE_S`] before it to the next move's
+    /// rest.
+    pub log: Log,
+    /// Time in the cut before the move's fast part, s (NaN for a log taken whole).
+    pub rest_before_s: f64,
+}
+
+/// The moves in `log`: where the hub turns faster than 5 % of its peak rate (over +-10 ms),
+/// in runs that pauses under [`MOVE_GAP_S`] do not break and that each cover at least a
+/// tenth of the largest run's travel. With one move (or none), the log whole. Each cut runs
+/// from twice [`REST_BEFORE_S`] before its move's fast part (the move itself starts a little
+/// earlier: the windows find it by the torque), or the previous move's end if nearer, to as
+/// much before the next move (or the log's end).
+pub fn split_moves(log: &Log) -> Vec<MoveCut> {
+    let n = log.t.len();
+    let whole = || {
+        vec![MoveCut {
+            log: log.clone(),
+            rest_before_s: f64::NAN,
+        }]
+    };
+    if n < 3 {
+        return whole();
+    }
+    let dt = (log.t[n - 1] - log.t[0]) / (n - 1) as f64;
+    let w = ((0.01 / dt).round() as usize).max(1);
+    let rate: Vec<f64> = (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(w), (k + w).min(n - 1));
+            (log.theta[b] - log.theta[a]) / ((b - a) as f64 * dt)
+        })
+        .collect();
+    let peak = rate.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+    if !(peak > 0.0) {
+        return whole();
+    }
+    // Runs of motion, pauses shorter than MOVE_GAP_S bridged.
+    let gap = (MOVE_GAP_S / dt).round() as usize;
+    let mut runs: Vec<(usize, usize)> = vec![];
+    for k in (0..n).filter(|&k| rate[k].abs() > 0.05 * peak) {
+        match runs.last_mut() {
+            Some(run) if k <= run.1 + gap => run.1 = k,
+            _ => runs.push((k, k)),
+        }
+    }
+    let travel = |r: &(usize, usize)| (log.theta[r.1] - log.theta[r.0]).abs();
+    let largest = runs.iter().map(travel).fold(0.0f64, f64::max);
+    runs.retain(|r| travel(r) >= 0.1 * largest);
+    if runs.len() < 2 {
+        return whole();
+    }
+    let rest = (2.0 * REST_BEFORE_S / dt).round() as usize;
+    runs.iter()
+        .enumerate()
+        .map(|(i, &(start, _))| {
+            let prev_end = if i == 0 { 0 } else { runs[i - 1].1 };
+            let from = start.saturating_sub(rest).max(prev_end);
+            let to = match runs.get(i + 1) {
+                Some(&(next, _)) => next.saturating_sub(rest).max(runs[i].1 + 1),
+                None => n,
+            };
+            MoveCut {
+                log: log.slice(from..to.min(n)),
+                rest_before_s: (start - from) as f64 * dt,
+            }
+        })
+        .collect()
 }
 
 /// Where the steps look, s from the log's first sample: the move (`start_s..end_s`) and the

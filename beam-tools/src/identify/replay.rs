@@ -25,6 +25,19 @@ pub struct ReplayReport {
     pub freq_log_hz: Option<f64>,
     /// The same from the model's strain (hub prescribed), Hz.
     pub freq_model_hz: Option<f64>,
+    /// Why a frequency is missing, if one is: the window after the move too short to hold
+    /// two cycles of the vibration, or no vibration in it.
+    pub freq_note: Option<String>,
+}
+
+/// Why [`vibration_hz`] finds no frequency.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NoFrequency {
+    /// Fewer than 16 samples, or nothing but a line (no vibration).
+    Flat,
+    /// The signal fits best with fewer than two cycles in the window: its frequency cannot
+    /// be told from the window's length (a longer log after the move can).
+    WindowTooShort,
 }
 
 /// Hub rate and acceleration at each sample, from a local quadratic fit to the logged angle
@@ -407,21 +420,24 @@ pub fn prescribed_observed<const N: usize>(
 /// frequency of the damped sinusoid plus straight line that fits it best in least squares
 /// (variable projection: amplitude, phase and line in closed form for each frequency and
 /// decay rate tried), searched around the peak of the detrended periodogram between two
-/// cycles over the span and a quarter of the sample rate (at most 200 Hz). `None` with
-/// fewer than 16 samples or a flat signal. (Mean crossings, used before, counted the
+/// cycles over the span and a quarter of the sample rate (at most 200 Hz). The coarse search
+/// starts at half a cycle: when the best fit there has under two cycles in the window, the
+/// window is too short ([`NoFrequency::WindowTooShort`]) rather than a frequency above two
+/// cycles reported (a 3.4 Hz mode in a 0.4 s window read as 6.2-6.7 Hz). [`NoFrequency::Flat`]
+/// with fewer than 16 samples or a flat signal. (Mean crossings, used before, counted the
 /// gauge's noise as cycles on a small residual; a bare periodogram peak is pulled by the
 /// decay and the hub's slow motion.)
-pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Option<f64> {
+pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Result<f64, NoFrequency> {
     let idx: Vec<usize> = (0..t.len())
         .filter(|&k| t[k] >= from && t[k] <= to)
         .collect();
     if idx.len() < 16 {
-        return None;
+        return Err(NoFrequency::Flat);
     }
     let ts: Vec<f64> = idx.iter().map(|&k| t[k] - t[idx[0]]).collect();
     let ys: Vec<f64> = idx.iter().map(|&k| signal[k]).collect();
     if !ys.iter().all(|y| y.is_finite()) {
-        return None;
+        return Err(NoFrequency::Flat);
     }
     let mut line = crate::identify::lsq::Normal::new(2);
     ts.iter()
@@ -429,13 +445,13 @@ pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Option<f64
         .for_each(|(x, y)| line.add(&[1.0, *x], *y));
     let yy: f64 = ys.iter().map(|y| y * y).sum();
     if line.solve().is_none_or(|f| f.rss <= 1e-20 * yy) {
-        return None;
+        return Err(NoFrequency::Flat);
     }
     let span = ts[ts.len() - 1];
     let dt = span / (ts.len() - 1) as f64;
     let (lo, hi) = (2.0 / span, (0.25 / dt).min(200.0));
     if !(hi > lo) {
-        return None;
+        return Err(NoFrequency::WindowTooShort);
     }
     // Residual sum of squares of the best fit of [e^-st cos wt, e^-st sin wt, 1, t].
     let misfit = |f: f64, decay: f64| -> f64 {
@@ -474,7 +490,11 @@ pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Option<f64
         }
         (best.0, best.1)
     };
-    let (coarse, _) = best_on(lo, hi, 0.05, &[0.0]);
+    // From half a cycle: a best fit under two cycles means the window is too short.
+    let (coarse, _) = best_on(0.5 / span, hi, 0.05, &[0.0]);
+    if coarse < lo {
+        return Err(NoFrequency::WindowTooShort);
+    }
     let (mid, decay) = best_on(
         (coarse - 0.5).max(lo),
         (coarse + 0.5).min(hi),
@@ -482,7 +502,7 @@ pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Option<f64
         &decays,
     );
     let fine: Vec<f64> = (0..=20).map(|i| decay * (0.8 + 0.02 * i as f64)).collect();
-    Some(best_on((mid - 0.01).max(lo), (mid + 0.01).min(hi), 0.0005, &fine).0)
+    Ok(best_on((mid - 0.01).max(lo), (mid + 0.01).min(hi), 0.0005, &fine).0)
 }
 
 /// `log` as the model sees it through the rig's `sensors`: the torque the hub received and
@@ -652,6 +672,8 @@ pub fn replay_report<const N: usize>(
         .collect();
     let in_window =
         |k: usize| t[k] >= windows.start_s - 1e-9 && t[k] <= windows.settle_end_s + 1e-9;
+    let freq_log = vibration_hz(&t, &log.root_strain, windows.end_s, t_last);
+    let freq_model = vibration_hz(&t, &eps, windows.end_s, t_last);
     let (mut se, mut ss, mut sm, mut n) = (0.0, 0.0, 0.0, 0usize);
     for k in 0..th.len().min(eps.len()) {
         if in_window(k) {
@@ -668,8 +690,20 @@ pub fn replay_report<const N: usize>(
         strain_rms_err_ue: strain_err,
         strain_rms_measured_ue: strain_rms,
         strain_rel_err: strain_err / strain_rms.max(1e-12),
-        freq_log_hz: vibration_hz(&t, &log.root_strain, windows.end_s, t_last),
-        freq_model_hz: vibration_hz(&t, &eps, windows.end_s, t_last),
+        freq_log_hz: freq_log.ok(),
+        freq_model_hz: freq_model.ok(),
+        freq_note: match (freq_log, freq_model) {
+            (Err(NoFrequency::WindowTooShort), _) | (_, Err(NoFrequency::WindowTooShort)) => {
+                Some(format!(
+                    "window too short: the {:.3} s after the move hold under two cycles of the vibration",
+                    t_last - windows.end_s
+                ))
+            }
+            (Err(NoFrequency::Flat), _) | (_, Err(NoFrequency::Flat)) => {
+                Some("no vibration after the move".into())
+            }
+            _ => None,
+        },
     })
 }
 
@@ -802,7 +836,27 @@ mod tests {
         let f = vibration_hz(&t, &y, 0.0, 2.0).unwrap();
         assert!((f - 2.7).abs() < 0.027, "{f}");
         // Flat or too short: no frequency.
-        assert_eq!(vibration_hz(&t, &vec![1.0; 1000], 0.0, 2.0), None);
-        assert_eq!(vibration_hz(&t, &y, 0.0, 0.02), None);
+        assert_eq!(
+            vibration_hz(&t, &vec![1.0; 1000], 0.0, 2.0),
+            Err(NoFrequency::Flat)
+        );
+        assert_eq!(vibration_hz(&t, &y, 0.0, 0.02), Err(NoFrequency::Flat));
+    }
+
+    #[test]
+    fn a_window_under_two_cycles_is_too_short_not_a_higher_frequency() {
+        // The other rig's 3.4 Hz mode, lightly damped, at 1 kHz: 0.4 s holds 1.4 cycles, and
+        // its frequency cannot be read from it; 1.2 s holds 4, and it can (within 1 %).
+        let t: Vec<f64> = (0..1200).map(|k| k as f64 * 1e-3).collect();
+        let y: Vec<f64> = t
+            .iter()
+            .map(|&t| (-0.3 * t).exp() * (2.0 * core::f64::consts::PI * 3.4 * t + 0.7).cos())
+            .collect();
+        assert_eq!(
+            vibration_hz(&t, &y, 0.0, 0.4),
+            Err(NoFrequency::WindowTooShort)
+        );
+        let f = vibration_hz(&t, &y, 0.0, 1.2).unwrap();
+        assert!((f - 3.4).abs() < 0.034, "{f}");
     }
 }

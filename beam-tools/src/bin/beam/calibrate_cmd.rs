@@ -3,8 +3,8 @@
 use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::identify::calibrate::{
-    calibrate_many, find_windows, read_log_with, AtBound, CalibrateError, Columns, Experiment,
-    LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS,
+    calibrate_many, find_windows, read_log_with, split_moves, AtBound, CalibrateError, Columns,
+    Experiment, LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS, REST_BEFORE_S,
 };
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
 use beam_tools::io::params_file::Sensors;
@@ -32,6 +32,12 @@ pub struct CalibrateArgs {
     /// [default: found in each log]; one log only.
     #[arg(long, value_name = "START,END,SETTLE_END", value_delimiter = ',')]
     windows: Option<Vec<f64>>,
+    /// Use each log from this time on, s on the log's own clock (its time column).
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    from: Option<f64>,
+    /// Use each log up to this time, s on the log's own clock.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    to: Option<f64>,
     /// `split`: the beam first, on the strain with the hub prescribed, then the rigid body
     /// and friction with a torque scale; `paper`: the paper's four steps on the torque
     /// replay, kept to reproduce the paper (on real logs its steps disagree and its
@@ -83,9 +89,9 @@ pub struct CalibrateArgs {
 pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     check(a)?;
     let guess = *crate::beam(&a.plant)?.params();
-    let exps = experiments(a)?;
-    let names: Vec<String> = a.logs.iter().map(|p| p.display().to_string()).collect();
-    let found = identify(a, &exps, &guess)?;
+    let (exps, names, notes) = experiments(a)?;
+    let mut found = identify(a, &exps, &guess)?;
+    found.notes = notes;
     write_files(a, &found, &exps, &names)?;
     let (fm, gm) = with_modes!(a.plant.modes, summary(&found.params, &guess))?;
     if a.json {
@@ -111,6 +117,8 @@ struct Found {
     /// With several logs, each log calibrated alone by the same method: its parameters and
     /// their intervals, or why it could not be.
     each_log: Vec<Result<Vec<Uncertainty>, String>>,
+    /// What reading and cutting the logs found (warnings).
+    notes: Vec<String>,
 }
 
 /// The arguments that must agree, checked before any log is read.
@@ -131,6 +139,16 @@ fn check(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.windows.is_some() && a.logs.len() > 1 {
         bail!("--windows applies to one log; with several, each log's windows are found in it");
     }
+    for (flag, v) in [("--from", a.from), ("--to", a.to)] {
+        if v.is_some_and(|v| !v.is_finite()) {
+            bail!("{flag} must be a finite time in s");
+        }
+    }
+    if let (Some(f), Some(t)) = (a.from, a.to) {
+        if f >= t {
+            bail!("--from {f} must come before --to {t}");
+        }
+    }
     Ok(())
 }
 
@@ -150,37 +168,74 @@ fn tip_masses(a: &CalibrateArgs) -> anyhow::Result<Vec<Option<f64>>> {
     })
 }
 
-/// The logs read, each with its windows and tip mass.
-fn experiments(a: &CalibrateArgs) -> anyhow::Result<Vec<Experiment>> {
+/// The moves to calibrate on, each with its name, windows and tip mass, and what reading
+/// them found: each log read, cut to --from/--to, an all-zero mid-span column dropped, and
+/// cut into moves if it holds several.
+fn experiments(a: &CalibrateArgs) -> anyhow::Result<(Vec<Experiment>, Vec<String>, Vec<String>)> {
     let columns = a.columns.clone().unwrap_or_default();
-    let mut exps = vec![];
+    let (mut exps, mut names, mut notes) = (vec![], vec![], vec![]);
     for (path, tip_mass_kg) in a.logs.iter().zip(tip_masses(a)?) {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).with_context(|| file.clone())?;
-        let log = read_log_with(&text, &file, &columns)?;
-        let windows = match a.windows.as_deref() {
-            Some([s, e, z]) => Windows::given(*s, *e, *z, &log),
-            Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
-            None => find_windows(&log),
+        let mut log = read_log_with(&text, &file, &columns)?;
+        if a.from.is_some() || a.to.is_some() {
+            log = log
+                .between(a.from, a.to)
+                .with_context(|| format!("{file} cut to --from/--to"))?;
         }
-        .with_context(|| file.clone())?;
-        exps.push(Experiment {
-            tip_mass_kg,
-            ..Experiment::new(log, windows)
-        });
+        if log.drop_unmeasured_mid() {
+            notes.push(format!(
+                "{file}: the mid-span strain reads zero throughout; taken as not measured"
+            ));
+        }
+        let cuts = split_moves(&log);
+        if cuts.len() > 1 && a.windows.is_some() {
+            bail!("{file} holds {} moves: --windows applies to a log of one move (cut it with --from/--to)", cuts.len());
+        }
+        let count = cuts.len();
+        for (i, cut) in cuts.into_iter().enumerate() {
+            let name = if count > 1 {
+                format!(
+                    "{file} (move {} of {count}, {:.3}..{:.3} s)",
+                    i + 1,
+                    cut.log.t[0],
+                    cut.log.t[cut.log.t.len() - 1]
+                )
+            } else {
+                file.clone()
+            };
+            let windows = match a.windows.as_deref() {
+                Some([s, e, z]) => Windows::given(*s, *e, *z, &cut.log),
+                Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
+                None => find_windows(&cut.log),
+            }
+            .with_context(|| name.clone())?;
+            // The rest before the move as the windows see it (the cut's, or the log's start).
+            if windows.start_s < REST_BEFORE_S - 1e-9 {
+                notes.push(format!(
+                    "{name}: the move starts {:.3} s into the log, with less than {REST_BEFORE_S} s of rest before it; the split takes the beam as at rest there, and a log cut this close to the move can bias the beam's fit (start the log earlier)",
+                    windows.start_s
+                ));
+            }
+            exps.push(Experiment {
+                tip_mass_kg,
+                ..Experiment::new(cut.log, windows)
+            });
+            names.push(name);
+        }
     }
-    Ok(exps)
+    Ok((exps, names, notes))
 }
 
 /// The calibration by the chosen method; with several logs, each log alone as well, so that
 /// logs that disagree are seen.
 fn identify(a: &CalibrateArgs, exps: &[Experiment], guess: &BeamParams) -> anyhow::Result<Found> {
-    let mut found = identify_joint(a, exps, guess)?;
+    let mut found = identify_joint(a, exps, guess, false)?;
     if exps.len() > 1 {
         found.each_log = exps
             .iter()
             .map(|e| {
-                let alone = identify_joint(a, std::slice::from_ref(e), guess)
+                let alone = identify_joint(a, std::slice::from_ref(e), guess, true)
                     .map_err(|e| format!("{e:#}"))?;
                 let (errs, _) = alone.spread.ok_or("a parameter has no effect on it")?;
                 Ok(errs)
@@ -190,11 +245,12 @@ fn identify(a: &CalibrateArgs, exps: &[Experiment], guess: &BeamParams) -> anyho
     Ok(found)
 }
 
-/// One parameter set fitted to all of `exps`.
+/// One parameter set fitted to all of `exps` (`alone`: one of several, fitted by itself).
 fn identify_joint(
     a: &CalibrateArgs,
     exps: &[Experiment],
     guess: &BeamParams,
+    alone: bool,
 ) -> anyhow::Result<Found> {
     if a.method != "split" {
         let (params, steps, per_log) =
@@ -207,6 +263,7 @@ fn identify_joint(
             split: None,
             spread,
             each_log: vec![],
+            notes: vec![],
         });
     }
     let mass = |e: &Experiment| e.tip_mass_kg.unwrap_or(guess.tip_mass_kg);
@@ -226,7 +283,7 @@ fn identify_joint(
         match with_modes!(a.plant.modes, calibrate_split(exps, guess, &options)) {
             // One of several logs, alone, may move one way: no offset for it (the joint
             // fit needs the logs together to move both ways, and says so).
-            Err(CalibrateError::OneWay) if exps.len() < a.logs.len() => {
+            Err(CalibrateError::OneWay) if alone => {
                 let options = SplitOptions {
                     fit_offset: false,
                     ..options
@@ -243,6 +300,7 @@ fn identify_joint(
         spread: Some((split.uncertainty.clone(), split.tradeoffs.clone())),
         split: Some(split),
         each_log: vec![],
+        notes: vec![],
     })
 }
 
@@ -469,7 +527,7 @@ fn print_spread(found: &Found, names: &[String]) {
 /// hub's smoothing or the encoder limit a parameter more than the noise. Printed with the
 /// text report, and with `--json` both on stderr and as the JSON's `warnings`.
 fn warnings(found: &Found, names: &[String]) -> Vec<String> {
-    let mut out = vec![];
+    let mut out = found.notes.clone();
     let split = &found.split;
     let [lo, hi] = beam_tools::identify::split::WINDOW_FACTORS;
     let smoothing = format!("{lo:.1} or {hi:.1} times the width");

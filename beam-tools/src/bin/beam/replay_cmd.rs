@@ -90,9 +90,13 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
             100.0 * report.strain_rel_err
         );
         println!(
-            "  vibration after the move: log {}, model {}",
+            "  vibration after the move: log {}, model {}{}",
             hz(report.freq_log_hz),
-            hz(report.freq_model_hz)
+            hz(report.freq_model_hz),
+            report
+                .freq_note
+                .as_ref()
+                .map_or(String::new(), |n| format!(" ({n})"))
         );
     }
     Ok(())
