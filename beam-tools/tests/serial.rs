@@ -14,8 +14,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// A drive on `port`: bytes to the link, requests to the handler, a tick every millisecond
-/// (the hub held still), records while streaming; until `stop`.
-fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>) {
+/// (the hub held still), records while streaming; until `stop`. It answers the first
+/// `answers` requests and then falls silent (a drive that hangs or a cable pulled).
+fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>, answers: usize) {
+    let mut answered = 0;
     let (mut commander, law) = Commander::try_new(
         &model_core::gains::PLANT,
         model_core::gains::GAIN_TABLE,
@@ -41,8 +43,11 @@ fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>) {
             }
         }
         while let Some(request) = link.next_request() {
-            let reply = commander.handle(&mut ctl, &request);
-            link.reply(&reply);
+            if answered < answers {
+                let reply = commander.handle(&mut ctl, &request);
+                link.reply(&reply);
+                answered += 1;
+            }
         }
         while (tick as u128) < start.elapsed().as_millis() {
             let t = ctl.step(&RawMeasurement::default());
@@ -78,7 +83,7 @@ fn beam_drive_talks_to_a_drive_over_a_tty_and_records_its_stream() {
     let stop = Arc::new(AtomicBool::new(false));
     let drive = {
         let stop = stop.clone();
-        std::thread::spawn(move || fake_drive(master, stop))
+        std::thread::spawn(move || fake_drive(master, stop, usize::MAX))
     };
     let dir = std::env::temp_dir().join(format!("beam-serial-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -137,5 +142,47 @@ fn beam_drive_talks_to_a_drive_over_a_tty_and_records_its_stream() {
     assert!(
         ticks.windows(2).all(|w| w[1] == w[0] + 1),
         "ticks consecutive"
+    );
+}
+
+#[test]
+fn a_drive_that_falls_silent_mid_script_leaves_what_ran_printed_and_exits_2() {
+    let (master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
+    let path = slave.name().expect("the tty's name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let drive = {
+        let stop = stop.clone();
+        std::thread::spawn(move || fake_drive(master, stop, 2))
+    };
+    let out = Command::new(env!("CARGO_BIN_EXE_beam"))
+        .args([
+            "drive",
+            "--port",
+            &path,
+            "--reply-timeout-ms",
+            "300",
+            "status",
+            ";",
+            "stream",
+            "0",
+            ";",
+            "status",
+        ])
+        .output()
+        .unwrap();
+    stop.store(true, Ordering::Relaxed);
+    drive.join().unwrap();
+    drop(slave);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("after 2 exchange(s)"), "{stderr}");
+    // The two that ran on the drive are on stdout.
+    assert_eq!(stdout.lines().count(), 2, "{stdout}");
+    assert!(
+        stdout.contains("status") && stdout.contains("stream 0"),
+        "{stdout}"
     );
 }
