@@ -45,7 +45,7 @@ for tag in 'abc':
             tau = held * 1.05 + random.gauss(0, 0.005)
             f.write(f"{r['t_s']},{tau},{r['theta_rad']},{r['root_strain']}\n")
 PY
-beam calibrate "$out/log_a.csv" --params "$out/guess.toml" --out "$out/found.toml"
+beam calibrate "$out/log_a.csv" --params "$out/guess.toml" --method paper --out "$out/found.toml"
 beam calibrate "$out/log_a.csv" --params "$out/guess.toml" --method split --out "$out/split.toml"
 beam calibrate "$out/log_a.csv" --params "$out/guess.toml" --method split --known-density 7850 \
   --out "$out/split_density.toml"
