@@ -420,10 +420,10 @@ pub fn prescribed_observed<const N: usize>(
 /// frequency of the damped sinusoid plus straight line that fits it best in least squares
 /// (variable projection: amplitude, phase and line in closed form for each frequency and
 /// decay rate tried), searched around the peak of the detrended periodogram between two
-/// cycles over the span and a quarter of the sample rate (at most 200 Hz). The coarse search
-/// starts at half a cycle: when the best fit there has under two cycles in the window, the
-/// window is too short ([`NoFrequency::WindowTooShort`]) rather than a frequency above two
-/// cycles reported (a 3.4 Hz mode in a 0.4 s window read as 6.2-6.7 Hz). [`NoFrequency::Flat`]
+/// cycles over the span and a quarter of the sample rate (at most 200 Hz): a mode slower
+/// than two cycles of the window is not seen, and the caller must not ask for one
+/// ([`replay_report`] checks the window against the model's first mode).
+/// [`NoFrequency::WindowTooShort`] when not even that range exists, [`NoFrequency::Flat`]
 /// with fewer than 16 samples or a flat signal. (Mean crossings, used before, counted the
 /// gauge's noise as cycles on a small residual; a bare periodogram peak is pulled by the
 /// decay and the hub's slow motion.)
@@ -490,11 +490,7 @@ pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Result<f64
         }
         (best.0, best.1)
     };
-    // From half a cycle: a best fit under two cycles means the window is too short.
-    let (coarse, _) = best_on(0.5 / span, hi, 0.05, &[0.0]);
-    if coarse < lo {
-        return Err(NoFrequency::WindowTooShort);
-    }
+    let (coarse, _) = best_on(lo, hi, 0.05, &[0.0]);
     let (mid, decay) = best_on(
         (coarse - 0.5).max(lo),
         (coarse + 0.5).min(hi),
@@ -672,8 +668,21 @@ pub fn replay_report<const N: usize>(
         .collect();
     let in_window =
         |k: usize| t[k] >= windows.start_s - 1e-9 && t[k] <= windows.settle_end_s + 1e-9;
-    let freq_log = vibration_hz(&t, &log.root_strain, windows.end_s, t_last);
-    let freq_model = vibration_hz(&t, &eps, windows.end_s, t_last);
+    // The search sees only modes above two cycles of the window; a window shorter than two
+    // periods of the model's first clamped mode (the slowest the beam rings at after a move)
+    // would report another frequency than the mode's (a 3.4 Hz mode in 0.4 s read 6.2-6.7 Hz).
+    let first_hz = ModalModel::<N>::try_build(&model_core::Beam::try_build(*params).ok()?)
+        .ok()?
+        .clamped_hz[0];
+    let short = t_last - windows.end_s < 2.0 / first_hz;
+    let freq = |signal: &[f64]| {
+        if short {
+            Err(NoFrequency::WindowTooShort)
+        } else {
+            vibration_hz(&t, signal, windows.end_s, t_last)
+        }
+    };
+    let (freq_log, freq_model) = (freq(&log.root_strain), freq(&eps));
     let (mut se, mut ss, mut sm, mut n) = (0.0, 0.0, 0.0, 0usize);
     for k in 0..th.len().min(eps.len()) {
         if in_window(k) {
@@ -844,19 +853,33 @@ mod tests {
     }
 
     #[test]
-    fn a_window_under_two_cycles_is_too_short_not_a_higher_frequency() {
-        // The other rig's 3.4 Hz mode, lightly damped, at 1 kHz: 0.4 s holds 1.4 cycles, and
-        // its frequency cannot be read from it; 1.2 s holds 4, and it can (within 1 %).
-        let t: Vec<f64> = (0..1200).map(|k| k as f64 * 1e-3).collect();
-        let y: Vec<f64> = t
-            .iter()
-            .map(|&t| (-0.3 * t).exp() * (2.0 * core::f64::consts::PI * 3.4 * t + 0.7).cos())
-            .collect();
-        assert_eq!(
-            vibration_hz(&t, &y, 0.0, 0.4),
-            Err(NoFrequency::WindowTooShort)
-        );
-        let f = vibration_hz(&t, &y, 0.0, 1.2).unwrap();
-        assert!((f - 3.4).abs() < 0.034, "{f}");
+    fn a_window_under_two_cycles_of_the_first_mode_is_too_short_not_another_frequency() {
+        // The aluminium beam (first clamped mode 5.48 Hz, two periods 0.365 s) after a PD
+        // slew: cut 0.25 s after the move's end the window holds under two of its periods,
+        // and the replay says so rather than reading another frequency; 1.2 s after it, both
+        // frequencies are read and agree.
+        use crate::identify::calibrate::{find_windows, read_log};
+        let truth = BeamParams::aluminium();
+        let m = ModalModel::<3>::try_build(&model_core::Beam::try_build(truth).unwrap()).unwrap();
+        let run = host_tests::sim::simulate(
+            &m,
+            model_core::Law::Pd(model_core::PdGains::BASELINE),
+            &host_tests::sim::SimOptions {
+                duration_s: 2.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let mut csv = Vec::new();
+        crate::io::files::write_trace_csv(&run, &mut csv).unwrap();
+        let log = read_log(std::str::from_utf8(&csv).unwrap(), "log.csv").unwrap();
+        let w = find_windows(&log).unwrap();
+        let upto = |s: f64| log.between(None, Some(w.end_s + s)).unwrap();
+        let short = replay_report::<3>(&truth, &Sensors::default(), &upto(0.25), &w).unwrap();
+        assert_eq!((short.freq_log_hz, short.freq_model_hz), (None, None));
+        assert!(short.freq_note.unwrap().starts_with("window too short"));
+        let long = replay_report::<3>(&truth, &Sensors::default(), &upto(1.2), &w).unwrap();
+        let (fl, fm) = (long.freq_log_hz.unwrap(), long.freq_model_hz.unwrap());
+        assert!((fl - fm).abs() / fl < 0.03, "{fl} vs {fm} Hz");
     }
 }
