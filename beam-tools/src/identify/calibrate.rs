@@ -419,7 +419,7 @@ pub const REST_BEFORE_S: f64 = 0.1;
 
 /// Pauses shorter than this inside a move (the hub slowing through a reversal, a settling
 /// swing) do not split it, s.
-const MOVE_GAP_S: f64 = 0.3;
+pub const MOVE_GAP_S: f64 = 0.3;
 
 /// One move cut from a log that holds several.
 #[derive(Clone, Debug, PartialEq)]
