@@ -140,12 +140,7 @@ fn a_bus_error_latches_a_driver_fault_at_once() {
 
 #[test]
 fn the_amplifier_fault_line_turns_the_torque_off_in_the_same_tick() {
-    let (mut d, b) = drive();
-    run(&mut d, 10);
-    let [out, _] = sequence().unwrap();
-    d.command(Command::Move(out)).unwrap();
-    run(&mut d, 30);
-    assert!(b.en_high.get());
+    let (mut d, b) = slewing();
     b.amp_fault.set(true);
     let t = run(&mut d, 1);
     assert_eq!((t.mode, t.torque_nm), (Mode::Fault, 0.0));
@@ -155,12 +150,7 @@ fn the_amplifier_fault_line_turns_the_torque_off_in_the_same_tick() {
 
 #[test]
 fn an_amplifier_pin_that_cannot_be_set_latches_a_driver_fault_with_the_torque_off() {
-    let (mut d, b) = drive();
-    run(&mut d, 10);
-    let [out, _] = sequence().unwrap();
-    d.command(Command::Move(out)).unwrap();
-    run(&mut d, 30);
-    assert!(b.en_high.get());
+    let (mut d, b) = slewing();
     b.outputs_broken.set(true);
     // The failing write is found after `step`: the torque is reported as zero at once, and
     // the next tick latches the fault.

@@ -268,13 +268,7 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         println!("{o}");
     } else {
         for e in &run.exchanges {
-            println!(
-                "{:8.3} s  #{:<3} {:<28} -> {:?}",
-                e.t,
-                e.request.seq,
-                describe(&e.request),
-                e.reply.outcome
-            );
+            print_exchange(e.t, &e.request, &e.reply.outcome);
         }
         for m in &moves {
             let f = |x: Option<f64>, d: usize| x.map_or("-".into(), |v| format!("{v:.d$}"));
@@ -309,6 +303,17 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         bail!("the PIL drive differs from the host build ({ulps} ulps)");
     }
     refusals(run.exchanges.iter().map(|e| &e.reply.outcome))
+}
+
+/// One exchange as a line: when, the request's number and words, the reply.
+fn print_exchange(t: f64, request: &Request, outcome: &Outcome) {
+    println!(
+        "{:8.3} s  #{:<3} {:<28} -> {:?}",
+        t,
+        request.seq,
+        describe(request),
+        outcome
+    );
 }
 
 /// A request in the script's words.
@@ -447,13 +452,7 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
     if let Err(e) = steps() {
         // What already ran on the drive, then the error.
         for (t, request, reply) in &exchanges {
-            println!(
-                "{:8.3} s  #{:<3} {:<28} -> {:?}",
-                t,
-                request.seq,
-                describe(request),
-                reply.outcome
-            );
+            print_exchange(*t, request, &reply.outcome);
         }
         return Err(e.context(format!(
             "after {} exchange(s) with the drive",
@@ -506,13 +505,7 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
         );
     } else {
         for (t, request, reply) in &exchanges {
-            println!(
-                "{:8.3} s  #{:<3} {:<28} -> {:?}",
-                t,
-                request.seq,
-                describe(request),
-                reply.outcome
-            );
+            print_exchange(*t, request, &reply.outcome);
         }
         println!(
             "  {} telemetry records ({} dropped by the drive), {} bad frames",
