@@ -421,30 +421,15 @@ pub const REST_BEFORE_S: f64 = 0.1;
 /// swing) do not split it, s.
 pub const MOVE_GAP_S: f64 = 0.3;
 
-/// One move cut from a log that holds several.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MoveCut {
-    /// The move's samples: from up to twice [`REST_BEFORE_S`] before it to the next move's
-    /// rest.
-    pub log: Log,
-    /// Time in the cut before the move's fast part, s (NaN for a log taken whole).
-    pub rest_before_s: f64,
-}
-
 /// The moves in `log`: where the hub turns faster than 5 % of its peak rate (over +-10 ms),
 /// in runs that pauses under [`MOVE_GAP_S`] do not break and that each cover at least a
 /// tenth of the largest run's travel. With one move (or none), the log whole. Each cut runs
 /// from twice [`REST_BEFORE_S`] before its move's fast part (the move itself starts a little
 /// earlier: the windows find it by the torque), or the previous move's end if nearer, to as
 /// much before the next move (or the log's end).
-pub fn split_moves(log: &Log) -> Vec<MoveCut> {
+pub fn split_moves(log: &Log) -> Vec<Log> {
     let n = log.t.len();
-    let whole = || {
-        vec![MoveCut {
-            log: log.clone(),
-            rest_before_s: f64::NAN,
-        }]
-    };
+    let whole = || vec![log.clone()];
     if n < 3 {
         return whole();
     }
@@ -485,10 +470,7 @@ pub fn split_moves(log: &Log) -> Vec<MoveCut> {
                 Some(&(next, _)) => next.saturating_sub(rest).max(runs[i].1 + 1),
                 None => n,
             };
-            MoveCut {
-                log: log.slice(from..to.min(n)),
-                rest_before_s: (start - from) as f64 * dt,
-            }
+            log.slice(from..to.min(n))
         })
         .collect()
 }

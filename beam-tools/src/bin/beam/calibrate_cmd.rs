@@ -198,16 +198,16 @@ fn experiments(a: &CalibrateArgs) -> anyhow::Result<(Vec<Experiment>, Vec<String
                 format!(
                     "{file} (move {} of {count}, {:.3}..{:.3} s)",
                     i + 1,
-                    cut.log.t[0],
-                    cut.log.t[cut.log.t.len() - 1]
+                    cut.t[0],
+                    cut.t[cut.t.len() - 1]
                 )
             } else {
                 file.clone()
             };
             let windows = match a.windows.as_deref() {
-                Some([s, e, z]) => Windows::given(*s, *e, *z, &cut.log),
+                Some([s, e, z]) => Windows::given(*s, *e, *z, &cut),
                 Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
-                None => find_windows(&cut.log),
+                None => find_windows(&cut),
             }
             .with_context(|| name.clone())?;
             // The rest before the move as the windows see it (the cut's, or the log's start).
@@ -219,7 +219,7 @@ fn experiments(a: &CalibrateArgs) -> anyhow::Result<(Vec<Experiment>, Vec<String
             }
             exps.push(Experiment {
                 tip_mass_kg,
-                ..Experiment::new(cut.log, windows)
+                ..Experiment::new(cut, windows)
             });
             names.push(name);
         }
