@@ -1,5 +1,6 @@
-//! The names a user chooses from, written once: the control-law kind, the switching function
-//! and the parameter preset.
+//! The names a user chooses from, written once: the control-law kind (with each law's gains
+//! and settings as a user sees them), the switching function, the shaper and the parameter
+//! preset.
 //!
 //! Each is a small `Copy` enum with [`name`](LawKind::name) (the spelling on the command line,
 //! in `gains.toml` and in JSON), [`FromStr`], `ALL` (for listings and
@@ -199,6 +200,8 @@ pub struct GainSpec {
     pub sign: Sign,
     /// The optimiser's default range.
     pub search: Search,
+    /// The value taken when a row leaves the gain out (`None`: it must be given).
+    pub default: Option<f64>,
 }
 
 /// Why a gain's value is refused.
@@ -233,11 +236,81 @@ impl Sign {
     }
 }
 
-/// Each law's gains, defined once: name, unit, sign rule and the optimiser's default range,
-/// in the optimiser's search order. The macro lays them out as parallel lists, so the drive,
-/// which checks signs, links the names and the rules but not the units or the ranges.
+/// A law's setting that is not a number: it is not interpolated between payloads, so every
+/// row of a law must agree on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Setting {
+    /// The switching function f of a sliding-mode law (`switching`).
+    Switching,
+    /// The strain law's model terms (`model_terms`).
+    ModelTerms,
+}
+
+impl Setting {
+    /// The setting's name in `gains.toml` and in JSON.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Setting::Switching => "switching",
+            Setting::ModelTerms => "model_terms",
+        }
+    }
+}
+
+/// The values of every [`Setting`]. A law reads those it has ([`LawKind::settings`]); the
+/// others stay at their defaults (tanh, no model terms).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Settings {
+    /// The switching function.
+    pub switching: Switching,
+    /// Keep the strain law's model terms.
+    pub model_terms: bool,
+}
+
+impl Settings {
+    /// Every setting at its default: tanh, no model terms (`const`, unlike `Default`).
+    pub const DEFAULT: Settings = Settings {
+        switching: Switching::Tanh,
+        model_terms: false,
+    };
+
+    /// Only the settings law `kind` has; the others at their defaults. Two rows of a law
+    /// agree when these agree.
+    pub fn of(self, kind: LawKind) -> Settings {
+        let has = |s| kind.settings().contains(&s);
+        Settings {
+            switching: if has(Setting::Switching) {
+                self.switching
+            } else {
+                Switching::default()
+            },
+            model_terms: has(Setting::ModelTerms) && self.model_terms,
+        }
+    }
+}
+
+/// `None`, or `Some` of the given default.
+macro_rules! optional {
+    () => {
+        None
+    };
+    ($default:expr) => {
+        Some($default)
+    };
+}
+
+/// Each law's definition as the user sees it, once: its gains (name, unit, sign rule, the
+/// optimiser's default range, and a default for a gain that may be left out) in the
+/// optimiser's search order, and its non-numeric settings. The macro lays the gains out as
+/// parallel lists, so the drive, which checks signs, links the names and the rules but not
+/// the units or the ranges. model-core's gain types are checked against these names at
+/// compile time.
 macro_rules! law_gains {
-    ($( [$($kind:ident),+] => [$( ($name:literal, $unit:literal, $sign:ident, $search:expr) ),+] );+ $(;)?) => {
+    ($(
+        [$($kind:ident),+] ($($setting:ident),*) => [$(
+            ($name:literal, $unit:literal, $sign:ident, $search:expr $(, default $default:expr)?)
+        ),+]
+    );+ $(;)?) => {
         impl LawKind {
             /// The law's gain names, in the optimiser's search order.
             pub const fn gain_names(self) -> &'static [&'static str] {
@@ -258,40 +331,102 @@ macro_rules! law_gains {
             pub const fn gain_search(self) -> &'static [Search] {
                 match self { $( $(LawKind::$kind)|+ => &[$($search),+], )+ }
             }
+
+            /// The value of each gain that may be left out of a row, in
+            /// [`LawKind::gain_names`]' order (`None`: required).
+            pub const fn gain_defaults(self) -> &'static [Option<f64>] {
+                match self { $( $(LawKind::$kind)|+ => &[$(optional!($($default)?)),+], )+ }
+            }
+
+            /// The law's non-numeric settings.
+            pub const fn settings(self) -> &'static [Setting] {
+                match self { $( $(LawKind::$kind)|+ => &[$(Setting::$setting),*], )+ }
+            }
         }
     };
 }
 
 law_gains! {
-    [Pd, PdFf] => [
+    [Pd, PdFf] () => [
         ("kp", "N m/rad", NonNegative, Search::Log(0.5, 200.0)),
         ("kd", "N m s/rad", NonNegative, Search::Log(0.01, 20.0))
     ];
-    [Smc] => [
+    [Smc] (Switching) => [
         ("w", "1/s", Positive, Search::Log(1.0, 200.0)),
         ("a", "rad/s^2", NonNegative, Search::Log(10.0, 5000.0)),
         ("beta", "s/rad", Positive, Search::Log(0.003, 5.0))
     ];
-    [SmcStrain] => [
+    [SmcStrain] (Switching, ModelTerms) => [
         ("w", "1/s", Positive, Search::Log(1.0, 200.0)),
         ("a", "rad/s^2", NonNegative, Search::Log(10.0, 5000.0)),
         ("beta", "s/rad", Positive, Search::Log(0.003, 5.0)),
         ("c", "rad per unit strain", Any, Search::Blend)
     ];
-    [SmcI] => [
+    [SmcI] (Switching) => [
         ("w", "1/s", Positive, Search::Log(1.0, 200.0)),
         ("wi", "1/s^2", NonNegative, Search::Log(0.1, 10000.0)),
         ("a", "rad/s^2", NonNegative, Search::Log(10.0, 5000.0)),
         ("beta", "s/rad", Positive, Search::Log(0.003, 5.0)),
-        ("c", "rad per unit strain", Any, Search::Blend)
+        ("c", "rad per unit strain", Any, Search::Blend, default 0.0)
     ];
-    [Lqg] => [
+    [Lqg] () => [
         ("kp", "N m/rad", Positive, Search::Log(1.0, 2000.0)),
         ("kd", "N m s/rad", Positive, Search::Log(0.01, 50.0)),
         ("ki", "N m/(rad s)", NonNegative, Search::Log(1.0, 20000.0)),
         ("kq", "(N m)^2/J", NonNegative, Search::Log(1.0, 1e7)),
         ("sigma", "N m", Positive, Search::Log(0.01, 10.0))
     ];
+}
+
+/// Most gains a law has: model-core's fixed gain arrays are this long.
+pub const MAX_GAINS: usize = 5;
+
+const _: () = {
+    let mut i = 0;
+    while i < LawKind::ALL.len() {
+        assert!(LawKind::ALL[i].gain_names().len() <= MAX_GAINS);
+        i += 1;
+    }
+};
+
+/// True when `a` and `b` hold the same names in the same order (a `const fn`, for the
+/// compile-time checks that model-core's gain types follow [`LawKind::gain_names`]).
+pub const fn same_names(a: &[&str], b: &[&str]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        let (x, y) = (a[i].as_bytes(), b[i].as_bytes());
+        if x.len() != y.len() {
+            return false;
+        }
+        let mut j = 0;
+        while j < x.len() {
+            if x[j] != y[j] {
+                return false;
+            }
+            j += 1;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// True when `a` and `b` hold the same settings in the same order (`const`, as
+/// [`same_names`]).
+pub const fn same_settings(a: &[Setting], b: &[Setting]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] as u8 != b[i] as u8 {
+            return false;
+        }
+        i += 1;
+    }
+    true
 }
 
 impl LawKind {
@@ -301,17 +436,29 @@ impl LawKind {
     pub fn gains(self) -> impl Iterator<Item = GainSpec> {
         let (names, units) = (self.gain_names(), self.gain_units());
         let (signs, search) = (self.gain_signs(), self.gain_search());
+        let defaults = self.gain_defaults();
         (0..names.len()).map(move |i| GainSpec {
             name: names[i],
             unit: units[i],
             sign: signs[i],
             search: search[i],
+            default: defaults[i],
         })
     }
 
     /// The spec of the gain `name`, if the law has it.
     pub fn gain(self, name: &str) -> Option<GainSpec> {
         self.gains().find(|g| g.name == name)
+    }
+
+    /// Where the gain `name` is in the law's gain list.
+    pub fn gain_index(self, name: &str) -> Option<usize> {
+        self.gain_names().iter().position(|n| *n == name)
+    }
+
+    /// True when the law has the setting `s`.
+    pub fn has(self, s: Setting) -> bool {
+        self.settings().contains(&s)
     }
 }
 
@@ -348,6 +495,7 @@ mod tests {
             assert_eq!(k.gain_signs().len(), n, "{k}");
             assert_eq!(k.gain_units().len(), n, "{k}");
             assert_eq!(k.gain_search().len(), n, "{k}");
+            assert_eq!(k.gain_defaults().len(), n, "{k}");
             for (i, g) in k.gains().enumerate() {
                 assert!(
                     k.gain_names()[..i].iter().all(|m| *m != g.name),
@@ -359,6 +507,9 @@ mod tests {
                     assert!(0.0 < lo && lo < hi, "{k}: {}", g.name);
                     // The default range obeys the sign rule.
                     assert_eq!(g.check(lo), Ok(()));
+                }
+                if let Some(d) = g.default {
+                    assert_eq!(g.check(d), Ok(()), "{k}: {}", g.name);
                 }
             }
         }

@@ -98,6 +98,58 @@ fn simulate_json_reports_metrics_or_a_breakdown() {
     }
     assert!(v["breakdown_at_s"].is_null() && v["cost_j"].as_f64().unwrap() > 0.0);
     assert_eq!(v["gains"]["kp"], 20.0);
+    // Any gain by its name: `--gain` sets the gain of that name, the same as its own flag,
+    // and the JSON names every gain and setting the law has, and only those.
+    let by_name = json(&beam(&[
+        "simulate",
+        "--controller",
+        "smc-i",
+        "--gain",
+        "wi=30",
+        "--gain",
+        "c=0.5",
+        "--json",
+    ]));
+    let by_flag = json(&beam(&[
+        "simulate",
+        "--controller",
+        "smc-i",
+        "--wi",
+        "30",
+        "--c",
+        "0.5",
+        "--json",
+    ]));
+    assert_eq!(by_name, by_flag);
+    let gains = by_name["gains"].as_object().unwrap();
+    assert_eq!(
+        (gains["wi"].as_f64(), gains["c"].as_f64()),
+        (Some(30.0), Some(0.5))
+    );
+    let mut keys: Vec<&str> = gains.keys().map(|k| k.as_str()).collect();
+    keys.sort_unstable();
+    assert_eq!(keys, ["a", "beta", "c", "switching", "w", "wi"]);
+    for (args, says) in [
+        (
+            &["--controller", "smc", "--gain", "kp=3"][..],
+            "--kp does not apply to --controller smc",
+        ),
+        (
+            &["--controller", "pd", "--switching", "sat"][..],
+            "--switching does not apply",
+        ),
+        (
+            &["--controller", "smc", "--model-terms"][..],
+            "--model-terms does not apply",
+        ),
+        (&["--gain", "w"][..], "expected NAME=VALUE"),
+        (&["--gain", "w=fast"][..], "`fast`"),
+    ] {
+        let out = beam(&[&["simulate"][..], args].concat());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
     let v = json(&beam(&[
         "simulate",
         "--preset",

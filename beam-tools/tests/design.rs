@@ -225,7 +225,9 @@ fn every_smc_i_row_switches_hard_enough_to_hold_the_stated_load() {
     const LOAD_NM: f64 = 0.5;
     let mut rows = 0;
     for row in GAIN_TABLE {
-        let Law::SmcI(g) = row.law else { continue };
+        let Some(g) = row.law.gains::<model_core::SmcIGains>() else {
+            continue;
+        };
         rows += 1;
         let m = model(row.payload_kg as f64);
         let jc = m.jeff / (1.0 - g.c as f64 * model_core::law::strain_coupling(&m));

@@ -8,7 +8,8 @@
 //! duplicates, so the controller can interpolate between neighbours at run time.
 
 use beam_kinds::GainRule;
-pub use beam_kinds::{LawKind, Preset, ShaperKind, Switching};
+pub use beam_kinds::{LawKind, Preset, Settings, ShaperKind, Switching};
+use beam_kinds::{Search, Setting};
 use beam_model::plant::PlantPoint;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -85,188 +86,165 @@ struct Common {
     shaper_tolerance: f64,
 }
 
-fn is_zero(x: &f64) -> bool {
-    *x == 0.0
-}
-
 fn default_tolerance() -> f64 {
     0.05
 }
 
 /// A law's gains as the table stores them (f64; the build rounds them to the f32 the drive
-/// runs). Tagged in the file by the row's `controller` key; a law has exactly the keys it
-/// uses, so `c` on an `smc` row is an unknown field.
+/// runs): the law (the row's `controller` key), its gains in the order of its specs
+/// ([`LawKind::gains`], which name the row's keys) and its settings
+/// ([`LawKind::settings`]). A row has exactly its law's keys, so `c` on an `smc` row is an
+/// unknown field; nothing here names a law's gains.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Gains {
-    /// `controller = "pd"`.
-    Pd(PdRow),
-    /// `controller = "smc"`.
-    Smc(SmcRow),
-    /// `controller = "smc-strain"`.
-    SmcStrain(StrainSmcRow),
-    /// `controller = "pd-ff"`.
-    PdFf(PdRow),
-    /// `controller = "smc-i"`.
-    SmcI(SmcIRow),
-    /// `controller = "lqg"`.
-    Lqg(LqgRow),
-}
-
-/// The LQG law's weights (the observer and feedback are designed from them on the plant).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LqgRow {
-    /// Hub angle weight, N m/rad.
-    pub kp: f64,
-    /// Hub rate weight, N m s/rad.
-    pub kd: f64,
-    /// Integral weight, N m/(rad s).
-    pub ki: f64,
-    /// Vibration energy weight, (N m)^2/J.
-    pub kq: f64,
-    /// Disturbance torque the observer assumes, N m.
-    pub sigma: f64,
-}
-
-/// The integral sliding mode's gains.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SmcIRow {
-    /// Surface slope W, 1/s.
-    pub w: f64,
-    /// Integral slope Wi, 1/s^2.
-    pub wi: f64,
-    /// Strain blend c, rad per unit strain (0 or absent: on the hub angle).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub c: f64,
-    /// Switching gain A, rad/s^2.
-    pub a: f64,
-    /// Boundary-layer slope beta, s/rad.
-    pub beta: f64,
-    /// Switching function (default tanh).
-    #[serde(default)]
-    pub switching: Switching,
-}
-
-/// PD gains.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PdRow {
-    /// Proportional gain, N m/rad.
-    pub kp: f64,
-    /// Derivative gain, N m s/rad.
-    pub kd: f64,
-}
-
-/// The paper's SMC gains.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SmcRow {
-    /// Surface slope W, 1/s.
-    pub w: f64,
-    /// Switching gain A, rad/s^2.
-    pub a: f64,
-    /// Boundary-layer slope beta, s/rad.
-    pub beta: f64,
-    /// Switching function (default tanh).
-    #[serde(default)]
-    pub switching: Switching,
-}
-
-/// The strain-augmented SMC's gains.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct StrainSmcRow {
-    /// Surface slope W, 1/s.
-    pub w: f64,
-    /// Switching gain A, rad/s^2.
-    pub a: f64,
-    /// Boundary-layer slope beta, s/rad.
-    pub beta: f64,
-    /// Strain blend c, rad per unit strain.
-    pub c: f64,
-    /// Switching function (default tanh).
-    #[serde(default)]
-    pub switching: Switching,
-    /// Keep the model terms.
-    #[serde(default)]
-    pub model_terms: bool,
+pub struct Gains {
+    kind: LawKind,
+    values: Vec<f64>,
+    settings: Settings,
 }
 
 impl Gains {
+    /// Law `kind`'s gains from `values` in the order of its specs (missing ones zero, extra
+    /// ones dropped: a law's fixed-size values pass as they are) and its settings (only the
+    /// law's own are kept).
+    pub fn new(kind: LawKind, values: &[f64], settings: Settings) -> Gains {
+        let n = kind.gain_names().len();
+        let mut v: Vec<f64> = values.iter().copied().take(n).collect();
+        v.resize(n, 0.0);
+        Gains {
+            kind,
+            values: v,
+            settings: settings.of(kind),
+        }
+    }
+
     /// The law these gains are for.
     pub fn kind(&self) -> LawKind {
-        match self {
-            Gains::Pd(_) => LawKind::Pd,
-            Gains::Smc(_) => LawKind::Smc,
-            Gains::SmcStrain(_) => LawKind::SmcStrain,
-            Gains::PdFf(_) => LawKind::PdFf,
-            Gains::SmcI(_) => LawKind::SmcI,
-            Gains::Lqg(_) => LawKind::Lqg,
-        }
+        self.kind
     }
 
-    /// The settings that cannot be interpolated between payloads, so all rows of a law must
-    /// agree on them: the switching function and the model-terms flag.
-    fn discrete(&self) -> (Option<Switching>, bool) {
-        match self {
-            Gains::Pd(_) | Gains::PdFf(_) | Gains::Lqg(_) => (None, false),
-            Gains::SmcI(g) => (Some(g.switching), false),
-            Gains::Smc(g) => (Some(g.switching), false),
-            Gains::SmcStrain(g) => (Some(g.switching), g.model_terms),
-        }
+    /// The gains in the order of the law's specs.
+    pub fn values(&self) -> &[f64] {
+        &self.values
     }
 
-    /// The gains' numbers, named as in the file, in file order.
+    /// The gains in the order of the law's specs, to edit.
+    pub fn values_mut(&mut self) -> &mut [f64] {
+        &mut self.values
+    }
+
+    /// The settings (those the law does not have at their defaults). They cannot be
+    /// interpolated between payloads, so all rows of a law must agree on them.
+    pub fn settings(&self) -> Settings {
+        self.settings
+    }
+
+    /// The gain `name`, if the law has it.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.kind.gain_index(name).map(|i| self.values[i])
+    }
+
+    /// The gains' numbers, named as in the file, in the specs' order.
     pub fn numbers(&self) -> Vec<(&'static str, f64)> {
-        match self {
-            Gains::Pd(g) | Gains::PdFf(g) => vec![("kp", g.kp), ("kd", g.kd)],
-            Gains::SmcI(g) => vec![
-                ("w", g.w),
-                ("wi", g.wi),
-                ("c", g.c),
-                ("a", g.a),
-                ("beta", g.beta),
-            ],
-            Gains::Smc(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta)],
-            Gains::Lqg(g) => vec![
-                ("kp", g.kp),
-                ("kd", g.kd),
-                ("ki", g.ki),
-                ("kq", g.kq),
-                ("sigma", g.sigma),
-            ],
-            Gains::SmcStrain(g) => vec![("w", g.w), ("a", g.a), ("beta", g.beta), ("c", g.c)],
-        }
+        self.kind
+            .gain_names()
+            .iter()
+            .copied()
+            .zip(self.values.iter().copied())
+            .collect()
     }
 
-    /// The gains read from a row's keys (without `controller` and the common keys).
-    fn from_table(kind: LawKind, t: toml::Table) -> Result<Self, toml::de::Error> {
-        let v = toml::Value::Table(t);
-        Ok(match kind {
-            LawKind::Pd => Gains::Pd(v.try_into()?),
-            LawKind::Smc => Gains::Smc(v.try_into()?),
-            LawKind::SmcStrain => Gains::SmcStrain(v.try_into()?),
-            LawKind::PdFf => Gains::PdFf(v.try_into()?),
-            LawKind::SmcI => Gains::SmcI(v.try_into()?),
-            LawKind::Lqg => Gains::Lqg(v.try_into()?),
+    /// The gains read from a row's keys (without `controller` and the common keys), by the
+    /// law's specs. `Err((field, why))`.
+    fn from_table(kind: LawKind, t: &toml::Table) -> Result<Self, (Option<&'static str>, String)> {
+        let mut values: Vec<Option<f64>> = vec![None; kind.gain_names().len()];
+        let mut settings = Settings::DEFAULT;
+        for (key, v) in t {
+            if let Some(i) = kind.gain_index(key) {
+                let name = kind.gain_names()[i];
+                values[i] = Some(match v {
+                    toml::Value::Float(x) => *x,
+                    toml::Value::Integer(x) => *x as f64,
+                    other => {
+                        return Err((
+                            Some(name),
+                            format!("expected a number, found {}", other.type_str()),
+                        ))
+                    }
+                });
+                continue;
+            }
+            let setting = kind.settings().iter().copied().find(|s| s.name() == key);
+            match (setting, v) {
+                (Some(Setting::Switching), toml::Value::String(name)) => {
+                    settings.switching = name
+                        .parse()
+                        .map_err(|e| (Some("switching"), format!("`{name}`: {e}")))?;
+                }
+                (Some(Setting::ModelTerms), toml::Value::Boolean(b)) => settings.model_terms = *b,
+                (Some(s), other) => {
+                    let wanted = match s {
+                        Setting::Switching => "a string",
+                        Setting::ModelTerms => "true or false",
+                    };
+                    return Err((
+                        Some(s.name()),
+                        format!("expected {wanted}, found {}", other.type_str()),
+                    ));
+                }
+                (None, _) => {
+                    let expected: Vec<String> = kind
+                        .gain_names()
+                        .iter()
+                        .copied()
+                        .chain(kind.settings().iter().map(|s| s.name()))
+                        .map(|k| format!("`{k}`"))
+                        .collect();
+                    return Err((
+                        None,
+                        format!(
+                            "{kind}: unknown field `{key}`, expected one of {}",
+                            expected.join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+        let mut out = Vec::with_capacity(values.len());
+        for (spec, v) in kind.gains().zip(values) {
+            match v.or(spec.default) {
+                Some(v) => out.push(v),
+                None => {
+                    return Err((
+                        Some(spec.name),
+                        format!("{kind}: missing field `{}`", spec.name),
+                    ))
+                }
+            }
+        }
+        Ok(Gains {
+            kind,
+            values: out,
+            settings,
         })
     }
 
-    /// The gains' keys.
+    /// The gains' keys, in the specs' order (a gain at its default left out), then the
+    /// settings.
     fn to_table(&self) -> toml::Table {
-        let v = match self {
-            Gains::Pd(g) | Gains::PdFf(g) => toml::Value::try_from(g),
-            Gains::SmcI(g) => toml::Value::try_from(g),
-            Gains::Lqg(g) => toml::Value::try_from(g),
-            Gains::Smc(g) => toml::Value::try_from(g),
-            Gains::SmcStrain(g) => toml::Value::try_from(g),
-        };
-        match v {
-            Ok(toml::Value::Table(t)) => t,
-            // Structs of numbers, names and flags always serialise to a table.
-            _ => toml::Table::new(),
+        let mut t = toml::Table::new();
+        for (spec, &v) in self.kind.gains().zip(&self.values) {
+            if spec.default != Some(v) {
+                t.insert(spec.name.into(), v.into());
+            }
         }
+        for s in self.kind.settings() {
+            let v = match s {
+                Setting::Switching => self.settings.switching.name().into(),
+                Setting::ModelTerms => self.settings.model_terms.into(),
+            };
+            t.insert(s.name().into(), v);
+        }
+        t
     }
 }
 
@@ -370,10 +348,10 @@ pub fn parse(text: &str, file: &str) -> Result<Table, TableError> {
                     ),
                 ));
             }
-            let ((sw, mt), (prev_sw, prev_mt)) = (r.gains.discrete(), prev.gains.discrete());
+            let (s, prev_s) = (r.gains.settings(), prev.gains.settings());
             for (field, same) in [
-                ("switching", sw == prev_sw),
-                ("model_terms", mt == prev_mt),
+                ("switching", s.switching == prev_s.switching),
+                ("model_terms", s.model_terms == prev_s.model_terms),
                 ("shaper", r.shaper.kind == prev.shaper.kind),
             ] {
                 if !same {
@@ -406,10 +384,9 @@ pub fn parse(text: &str, file: &str) -> Result<Table, TableError> {
 /// What a row's law needs of the plant at its payload: a strain blend within the rule the
 /// laws apply ([`PlantPoint::blend_ratio`]).
 fn check_against_plant(r: &Row, plant: &PlantSpec) -> Result<(), (&'static str, String)> {
-    let c = match &r.gains {
-        Gains::SmcStrain(g) => g.c,
-        Gains::SmcI(g) => g.c,
-        Gains::Pd(_) | Gains::PdFf(_) | Gains::Smc(_) | Gains::Lqg(_) => return Ok(()),
+    let blend = r.gains.kind().gains().zip(r.gains.values());
+    let Some((spec, &c)) = blend.into_iter().find(|(g, _)| g.search == Search::Blend) else {
+        return Ok(());
     };
     let point = plant
         .point(r.payload_kg as f32 as f64)
@@ -417,7 +394,7 @@ fn check_against_plant(r: &Row, plant: &PlantSpec) -> Result<(), (&'static str, 
     match point.blend_ratio(c) {
         Some(_) => Ok(()),
         None => Err((
-            "c",
+            spec.name,
             format!(
                 "{c}: the blend leaves 1 - c gamma = {:.3} of the hub's input gain on this \
                  plant (at least {} is needed)",
@@ -476,8 +453,7 @@ fn row_from_value(v: &toml::Value) -> Result<Row, (Option<&'static str>, String)
             ));
         }
     }
-    let gains = Gains::from_table(kind, table)
-        .map_err(|e| (None, format!("{kind}: {}", e.message().trim())))?;
+    let gains = Gains::from_table(kind, &table)?;
     Ok(Row {
         payload_kg: c.payload_kg,
         gains,
@@ -646,51 +622,25 @@ pub fn generate_rust(table: &Table) -> Result<String, TableError> {
         String::from("// Generated by model-core/build.rs from the gain table. Do not edit.\n");
     out.push_str(&plant::generate_plant(&plant));
     out.push_str(&table.drive.generate());
-    let switching = |s: Switching| format!("::beam_kinds::Switching::{s:?}");
-    let smc = |w: f64, a: f64, beta: f64, s: Switching| {
-        format!(
-            "crate::law::SmcGains {{ w: {:?}, a: {:?}, beta: {:?}, switching: {} }}",
-            w as f32,
-            a as f32,
-            beta as f32,
-            switching(s)
-        )
-    };
     let mut sources = Vec::with_capacity(rows.len());
     for r in rows {
-        let law = match &r.gains {
-            Gains::Pd(g) => format!(
-                "crate::law::Law::Pd(crate::law::PdGains {{ kp: {:?}, kd: {:?} }})",
-                g.kp as f32, g.kd as f32
-            ),
-            Gains::Smc(g) => format!(
-                "crate::law::Law::Smc({})",
-                smc(g.w, g.a, g.beta, g.switching)
-            ),
-            Gains::SmcStrain(g) => format!(
-                "crate::law::Law::SmcStrain(crate::law::StrainSmcGains {{ smc: {}, c: {:?}, model_terms: {} }})",
-                smc(g.w, g.a, g.beta, g.switching),
-                g.c as f32,
-                g.model_terms
-            ),
-            Gains::PdFf(g) => format!(
-                "crate::law::Law::PdFf(crate::law::PdFfGains {{ kp: {:?}, kd: {:?} }})",
-                g.kp as f32, g.kd as f32
-            ),
-            Gains::SmcI(g) => format!(
-                "crate::law::Law::SmcI(crate::law::SmcIGains {{ w: {:?}, wi: {:?}, c: {:?}, a: {:?}, beta: {:?}, switching: {} }})",
-                g.w as f32,
-                g.wi as f32,
-                g.c as f32,
-                g.a as f32,
-                g.beta as f32,
-                switching(g.switching)
-            ),
-            Gains::Lqg(g) => format!(
-                "crate::law::Law::Lqg(crate::law::LqgGains {{ kp: {:?}, kd: {:?}, ki: {:?}, kq: {:?}, sigma: {:?} }})",
-                g.kp as f32, g.kd as f32, g.ki as f32, g.kq as f32, g.sigma as f32
-            ),
-        };
+        // Every law through `Law::from_values` (a `const fn`, evaluated at compile time):
+        // its gains in the specs' order, rounded to the drive's f32, and its settings.
+        let mut values: Vec<String> = r
+            .gains
+            .values()
+            .iter()
+            .map(|v| format!("{:?}", *v as f32))
+            .collect();
+        values.resize(beam_kinds::MAX_GAINS, "0.0".into());
+        let s = r.gains.settings();
+        let law = format!(
+            "crate::law::Law::from_values(::beam_kinds::LawKind::{:?}, [{}], ::beam_kinds::Settings {{ switching: ::beam_kinds::Switching::{:?}, model_terms: {} }})",
+            r.gains.kind(),
+            values.join(", "),
+            s.switching,
+            s.model_terms
+        );
         let shaper = format!(
             "crate::shaper::Shaper {{ kind: ::beam_kinds::ShaperKind::{:?}, freq_hz: {:?}, damping: {:?}, tolerance: {:?} }}",
             r.shaper.kind,
@@ -772,9 +722,9 @@ cost_j = 2.0
         let table = parse(GOOD, "gains.toml").unwrap();
         assert_eq!(table.rows.len(), 2);
         assert_eq!(parse(&render(&table), "x").unwrap(), table);
-        assert!(generate_rust(&table)
-            .unwrap()
-            .contains("crate::law::Law::Smc(crate::law::SmcGains { w: 10.0, a: 1000.0"));
+        assert!(generate_rust(&table).unwrap().contains(
+            "crate::law::Law::from_values(::beam_kinds::LawKind::Smc, [10.0, 1000.0, 0.1, 0.0, 0.0]"
+        ));
     }
 
     #[test]
@@ -840,9 +790,23 @@ cost_j = 2.0
         let e = bad("a = 900.0", "a = 900.0\nkp = 3.0");
         assert_eq!(e.row, Some(2));
         assert!(e.message.starts_with("smc: unknown field `kp`"), "{e}");
-        // Syntax and schema errors still say where.
+        // Syntax and schema errors still say where, and name the field they can.
         let e = bad("w = 12.0", "w = \"fast\"");
-        assert_eq!(e.row, Some(2));
+        assert_eq!((e.row, e.field), (Some(2), Some("w")));
+        assert_eq!(e.message, "expected a number, found string");
+        let e = bad("beta = 0.1\ncost_j = 2.0", "cost_j = 2.0");
+        assert_eq!((e.row, e.field), (Some(2), Some("beta")));
+        assert_eq!(e.message, "smc: missing field `beta`");
+        let e = bad("w = 12.0", "w = 12.0\nswitching = \"bang\"");
+        assert_eq!(e.field, Some("switching"));
+        assert!(e.message.contains("expected one of tanh, sat, sign"), "{e}");
+        let e = bad("w = 12.0", "w = 12.0\nmodel_terms = true");
+        assert!(
+            e.message.starts_with("smc: unknown field `model_terms`"),
+            "{e}"
+        );
+        // An integer is a number.
+        assert!(parse(&GOOD.replacen("w = 12.0", "w = 12", 1), "g").is_ok());
         let e = bad(
             "beta = 0.1\ncost_j = 1.0",
             "beta = 0.1\ngain = 3\ncost_j = 1.0",
@@ -880,6 +844,22 @@ cost_j = 2.0
             specs.sort_unstable();
             assert_eq!(sorted, specs, "{kind}");
         }
+    }
+
+    #[test]
+    fn a_gain_with_a_default_may_be_left_out_and_is_left_out_when_written() {
+        // smc-i's blend defaults to 0 (the surface on the hub angle alone).
+        let text = GOOD
+            .replace("\"smc\"", "\"smc-i\"")
+            .replace("beta = 0.1\n", "beta = 0.1\nwi = 25.0\n");
+        let t = parse(&text, "g").unwrap();
+        assert_eq!(t.rows[0].gains.get("c"), Some(0.0));
+        assert!(!render(&t).contains("\nc = "), "{}", render(&t));
+        let with = text.replacen("wi = 25.0", "wi = 25.0\nc = 0.5", 1);
+        let t = parse(&with, "g").unwrap();
+        assert_eq!(t.rows[0].gains.get("c"), Some(0.5));
+        assert!(render(&t).contains("\nc = 0.5\n"));
+        assert_eq!(parse(&render(&t), "g").unwrap(), t);
     }
 
     #[test]
@@ -958,10 +938,8 @@ cost_j = 2.0
             rows.iter().map(|r| r.payload_kg).collect::<Vec<_>>(),
             [0.0, 0.025, 0.05]
         );
-        let Gains::Smc(g) = &mut mid.gains else {
-            panic!("the fixture's rows are smc")
-        };
-        g.w = 99.0;
+        let w = LawKind::Smc.gain_index("w").unwrap();
+        mid.gains.values_mut()[w] = 99.0;
         upsert(rows, mid.clone());
         assert_eq!(rows.len(), 3);
         assert_eq!(rows[1], mid);

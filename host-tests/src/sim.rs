@@ -13,74 +13,32 @@ use model_core::planner::MAX_WAYPOINTS;
 use model_core::spline::paper_slew;
 use model_core::{plan_through, Limits, Shaper, Timing, Waypoint};
 use model_core::{
-    ControlLaw, Controller, ControllerSettings, Law, LawKind, LqgGains, ModalModel, Mode,
-    PdFfGains, PdGains, RawMeasurement, SmcGains, SmcIGains, Spline, StrainSmcGains, Switching,
-    TorqueCommand,
+    ControlLaw, Controller, ControllerSettings, Law, LawGains, LawKind, LqgGains, ModalModel, Mode,
+    RawMeasurement, SmcGains, SmcIGains, Spline, StrainSmcGains, TorqueCommand,
 };
 
 /// The paper's move time AT, s, as the host's metrics use it (model-core's
 /// `spline::paper_slew` is the one definition of the slew).
 pub const SLEW_TIME_S: f64 = paper_slew::TIME_MS as f64 / 1000.0;
 
-/// The paper's SMC gains picked by hand for the aluminium preset with 3 modes: a grid over
-/// W, A, beta ranked by the tip's settling time (docs/use-the-cli.md, "Control laws and the hand-picked gains").
-pub const HAND_PICKED_SMC: SmcGains = SmcGains {
-    w: 10.0,
-    a: 1000.0,
-    beta: 0.1,
-    switching: Switching::Tanh,
-};
+/// The paper's SMC gains picked by hand (model-core's `SmcGains::START`, where their
+/// derivation is).
+pub const HAND_PICKED_SMC: SmcGains = SmcGains::START;
 
-/// The strain-augmented SMC's hand-picked gains, chosen the same way.
-pub const HAND_PICKED_SMC_STRAIN: StrainSmcGains = StrainSmcGains {
-    smc: SmcGains {
-        a: 600.0,
-        ..HAND_PICKED_SMC
-    },
-    c: 10.0,
-    model_terms: false,
-};
+/// The strain-augmented SMC's hand-picked gains (`StrainSmcGains::START`).
+pub const HAND_PICKED_SMC_STRAIN: StrainSmcGains = StrainSmcGains::START;
 
-/// The integral sliding mode's starting gains: the hand-picked SMC's surface with a
-/// critically damped integral (Wi = W^2/4) and A sized so that Jeff A (0.72 N m on the
-/// aluminium beam) exceeds the 0.5 N m load the drive must hold.
-pub const HAND_PICKED_SMC_I: SmcIGains = SmcIGains {
-    w: 10.0,
-    wi: 25.0,
-    c: 0.0,
-    a: 100.0,
-    beta: 0.1,
-    switching: Switching::Tanh,
-};
+/// The integral sliding mode's starting gains (`SmcIGains::START`).
+pub const HAND_PICKED_SMC_I: SmcIGains = SmcIGains::START;
 
-/// The LQG law's starting weights (those of the shipped rows): a hub stiffness weight of
-/// 300 N m/rad, a rate weight of 1 N m s/rad, an integral weight of 1000, the beam's
-/// vibration energy weighted at 1e4 and a 1 N m disturbance for the observer. Chosen by
-/// sweeps over beams 20 % off the model (docs/results.md): stiffer weights settle a
-/// nominal beam sooner but lose beams whose first mode is off the model's.
-pub const HAND_PICKED_LQG: LqgGains = LqgGains {
-    kp: 300.0,
-    kd: 1.0,
-    ki: 1000.0,
-    kq: 10000.0,
-    sigma: 1.0,
-};
+/// The LQG law's starting weights, those of the shipped rows (`LqgGains::START`).
+pub const HAND_PICKED_LQG: LqgGains = LqgGains::START;
 
 /// The law of `kind` with the gains used when neither the command line nor the gain table
-/// gives them: PD's baseline (Kp 20, Kd 1, also under the feedforward of pd-ff) and the
-/// hand-picked SMC gains.
+/// gives them: each law's [`LawGains::START`] (PD's baseline, Kp 20 and Kd 1, also under
+/// the feedforward of pd-ff, and the hand-picked SMC gains).
 pub const fn hand_picked(kind: LawKind) -> Law {
-    match kind {
-        LawKind::Pd => Law::Pd(PdGains::BASELINE),
-        LawKind::Smc => Law::Smc(HAND_PICKED_SMC),
-        LawKind::SmcStrain => Law::SmcStrain(HAND_PICKED_SMC_STRAIN),
-        LawKind::PdFf => Law::PdFf(PdFfGains {
-            kp: PdGains::BASELINE.kp,
-            kd: PdGains::BASELINE.kd,
-        }),
-        LawKind::SmcI => Law::SmcI(HAND_PICKED_SMC_I),
-        LawKind::Lqg => Law::Lqg(HAND_PICKED_LQG),
-    }
+    Law::start(kind)
 }
 
 /// Knot capacity of the moves the host runs.

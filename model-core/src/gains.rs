@@ -6,10 +6,7 @@
 //! drive is configured, not in the tick: the result is validated by `ControlLaw::try_build`
 //! and swapped in whole.
 
-use crate::law::{
-    Law, LawKind, LawPlant, LqgGains, PdFfGains, PdGains, SmcGains, SmcIGains, StrainSmcGains,
-    ASSUMED_STRAIN_NOISE, LQG_MODES,
-};
+use crate::law::{Law, LawKind, LawPlant, LqgGains, ASSUMED_STRAIN_NOISE, LQG_MODES};
 use crate::modal::ModalModel;
 use crate::plant::PlantPoint;
 use crate::shaper::Shaper;
@@ -104,10 +101,7 @@ pub fn schedule(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law
 /// The law `kind` for `payload_kg` from `table` ([`schedule`]), or for PD without rows the
 /// baseline gains. `None` if the table has no row for any other law.
 pub fn scheduled_law(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law> {
-    schedule(table, kind, payload_kg).or(match kind {
-        LawKind::Pd => Some(Law::Pd(PdGains::BASELINE)),
-        LawKind::Smc | LawKind::SmcStrain | LawKind::PdFf | LawKind::SmcI | LawKind::Lqg => None,
-    })
+    schedule(table, kind, payload_kg).or((kind == LawKind::Pd).then_some(Law::start(LawKind::Pd)))
 }
 
 /// The input shaper of law `kind` at `payload_kg`: its rows' shaper, frequency and damping
@@ -136,63 +130,19 @@ pub fn schedule_shaper(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Sha
     below.shaper
 }
 
+/// The gains between two rows of one law, each by the same linear mix; the settings are
+/// the lower row's (the table's build makes a law's rows agree on them).
 fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
-    let mix = |a: f32, b: f32| a + (b - a) * f;
-    let smc = |a: &SmcGains, b: &SmcGains| SmcGains {
-        w: mix(a.w, b.w),
-        a: mix(a.a, b.a),
-        beta: mix(a.beta, b.beta),
-        switching: a.switching,
-    };
-    match (lo, hi) {
-        (Law::Pd(a), Law::Pd(b)) => Law::Pd(PdGains {
-            kp: mix(a.kp, b.kp),
-            kd: mix(a.kd, b.kd),
-        }),
-        (Law::Smc(a), Law::Smc(b)) => Law::Smc(smc(a, b)),
-        (Law::SmcStrain(a), Law::SmcStrain(b)) => Law::SmcStrain(StrainSmcGains {
-            smc: smc(&a.smc, &b.smc),
-            c: mix(a.c, b.c),
-            model_terms: a.model_terms,
-        }),
-        (Law::PdFf(a), Law::PdFf(b)) => Law::PdFf(PdFfGains {
-            kp: mix(a.kp, b.kp),
-            kd: mix(a.kd, b.kd),
-        }),
-        (Law::SmcI(a), Law::SmcI(b)) => Law::SmcI(SmcIGains {
-            w: mix(a.w, b.w),
-            wi: mix(a.wi, b.wi),
-            c: mix(a.c, b.c),
-            a: mix(a.a, b.a),
-            beta: mix(a.beta, b.beta),
-            switching: a.switching,
-        }),
-        // Rows are filtered by kind, so kinds always match. Listed by variant, not `_`, so
-        // that a new law is a compile error here until it says how its gains interpolate.
-        (Law::Lqg(a), Law::Lqg(b)) => Law::Lqg(LqgGains {
-            kp: mix(a.kp, b.kp),
-            kd: mix(a.kd, b.kd),
-            ki: mix(a.ki, b.ki),
-            kq: mix(a.kq, b.kq),
-            sigma: mix(a.sigma, b.sigma),
-        }),
-        (
-            Law::Pd(_)
-            | Law::Smc(_)
-            | Law::SmcStrain(_)
-            | Law::PdFf(_)
-            | Law::SmcI(_)
-            | Law::Lqg(_),
-            _,
-        ) => *lo,
-    }
+    let (a, b) = (lo.values(), hi.values());
+    let mixed = core::array::from_fn(|i| a[i] + (b[i] - a[i]) * f);
+    Law::from_values(lo.kind(), mixed, lo.settings())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    use crate::law::Switching;
+    use crate::law::{PdGains, SmcGains, Switching};
 
     const G: SmcGains = SmcGains {
         w: 10.0,

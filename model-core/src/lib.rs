@@ -87,8 +87,8 @@ pub use controller::{
     Snapshot, TorqueCommand,
 };
 pub use law::{
-    ControlLaw, Law, LawKind, LawState, LqgGains, PdFfGains, PdGains, SmcGains, SmcIGains,
-    StrainSmcGains, Switching,
+    ControlLaw, Law, LawGains, LawKind, LawState, LqgGains, PdFfGains, PdGains, Settings, SmcGains,
+    SmcIGains, StrainSmcGains, Switching,
 };
 pub use measure::{AdcSpec, EncoderSpec};
 pub use modal::{ModalModel, ModelError};

@@ -14,10 +14,7 @@
 use host_tests::metrics::{cost, metrics, metrics_with, CostSpec, Metrics, SettleSpec};
 use host_tests::sim::Motion;
 use host_tests::sim::{simulate, simulate_mismatched, SimError, SimOptions, SimResult};
-use model_core::{
-    Beam, BeamParams, Law, LawKind, LqgGains, ModalModel, PdFfGains, PdGains, SmcGains, SmcIGains,
-    StrainSmcGains, Switching,
-};
+use model_core::{Beam, BeamParams, Law, LawKind, ModalModel, Switching};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -301,54 +298,21 @@ pub struct Outcome {
     pub evaluations: usize,
 }
 
-/// The law for gains `x` (in `spec.params` order).
+/// The law for gains `x` (in `spec.params` order): each of the law's gains by its name,
+/// the law's starting gains ([`Law::start`]) for any the spec does not search.
 pub fn law_of(spec: &Spec, x: &[f64]) -> Law {
-    let get = |name: &str, default: f64| {
-        spec.params
-            .iter()
-            .position(|p| p.name == name)
-            .map_or(default, |i| x[i]) as f32
-    };
-    let smc = || SmcGains {
-        w: get("w", 10.0),
-        a: get("a", 1000.0),
-        beta: get("beta", 0.1),
-        switching: spec.switching,
-    };
-    match spec.kind {
-        LawKind::Pd => Law::Pd(PdGains {
-            kp: get("kp", 20.0),
-            kd: get("kd", 1.0),
-        }),
-        LawKind::Smc => Law::Smc(smc()),
-        LawKind::SmcStrain => Law::SmcStrain(StrainSmcGains {
-            smc: smc(),
-            c: get("c", 0.0),
-            model_terms: spec.model_terms,
-        }),
-        LawKind::PdFf => Law::PdFf(PdFfGains {
-            kp: get("kp", 20.0),
-            kd: get("kd", 1.0),
-        }),
-        LawKind::SmcI => Law::SmcI(SmcIGains {
-            w: get("w", 10.0),
-            wi: get("wi", 25.0),
-            c: get("c", 0.0),
-            a: get("a", 100.0),
-            beta: get("beta", 0.1),
-            switching: spec.switching,
-        }),
-        LawKind::Lqg => {
-            let h = host_tests::sim::HAND_PICKED_LQG;
-            Law::Lqg(LqgGains {
-                kp: get("kp", h.kp as f64),
-                kd: get("kd", h.kd as f64),
-                ki: get("ki", h.ki as f64),
-                kq: get("kq", h.kq as f64),
-                sigma: get("sigma", h.sigma as f64),
-            })
+    let kind = spec.kind;
+    let mut values = Law::start(kind).values();
+    for (v, name) in values.iter_mut().zip(kind.gain_names()) {
+        if let Some(i) = spec.params.iter().position(|p| p.name == *name) {
+            *v = x[i] as f32;
         }
     }
+    let settings = model_core::Settings {
+        switching: spec.switching,
+        model_terms: spec.model_terms,
+    };
+    Law::from_values(kind, values, settings)
 }
 
 /// The move for gains `x`: the spec's move, with the shaper's frequency taken from the

@@ -2,9 +2,10 @@
 //! model-core schedules from, so a candidate table can be simulated and swept before it is
 //! compiled into the firmware.
 
-use gain_table::{Gains, Row};
+use gain_table::Row;
 use model_core::gains::GainRow;
-use model_core::{Law, LqgGains, PdFfGains, PdGains, Shaper, SmcGains, SmcIGains, StrainSmcGains};
+use model_core::law::MAX_GAINS;
+use model_core::{Law, Shaper};
 
 /// The rows of `rows` as the drive would run them: gains rounded to f32, as the build does.
 /// Rows keep their order (the table's parser has already checked that each controller's rows
@@ -14,43 +15,11 @@ pub fn gain_rows(rows: &[Row]) -> Vec<GainRow> {
 }
 
 fn gain_row(r: &Row) -> GainRow {
-    let smc = |w: f64, a: f64, beta: f64, switching| SmcGains {
-        w: w as f32,
-        a: a as f32,
-        beta: beta as f32,
-        switching,
-    };
-    let law = match &r.gains {
-        Gains::Pd(g) => Law::Pd(PdGains {
-            kp: g.kp as f32,
-            kd: g.kd as f32,
-        }),
-        Gains::Smc(g) => Law::Smc(smc(g.w, g.a, g.beta, g.switching)),
-        Gains::SmcStrain(g) => Law::SmcStrain(StrainSmcGains {
-            smc: smc(g.w, g.a, g.beta, g.switching),
-            c: g.c as f32,
-            model_terms: g.model_terms,
-        }),
-        Gains::PdFf(g) => Law::PdFf(PdFfGains {
-            kp: g.kp as f32,
-            kd: g.kd as f32,
-        }),
-        Gains::SmcI(g) => Law::SmcI(SmcIGains {
-            w: g.w as f32,
-            wi: g.wi as f32,
-            c: g.c as f32,
-            a: g.a as f32,
-            beta: g.beta as f32,
-            switching: g.switching,
-        }),
-        Gains::Lqg(g) => Law::Lqg(LqgGains {
-            kp: g.kp as f32,
-            kd: g.kd as f32,
-            ki: g.ki as f32,
-            kq: g.kq as f32,
-            sigma: g.sigma as f32,
-        }),
-    };
+    let mut values = [0.0f32; MAX_GAINS];
+    for (v, &g) in values.iter_mut().zip(r.gains.values()) {
+        *v = g as f32;
+    }
+    let law = Law::from_values(r.gains.kind(), values, r.gains.settings());
     GainRow {
         payload_kg: r.payload_kg as f32,
         law,

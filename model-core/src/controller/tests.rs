@@ -289,7 +289,7 @@ proptest! {
         let laws = [
             Law::Pd(PdGains::BASELINE),
             SMC,
-            Law::SmcStrain(StrainSmcGains { smc: SMC_GAINS, c: -50.0, model_terms: true }),
+            Law::SmcStrain(StrainSmcGains { w: SMC_GAINS.w, a: SMC_GAINS.a, beta: SMC_GAINS.beta, c: -50.0, switching: SMC_GAINS.switching, model_terms: true }),
             Law::Pd(PdGains { kp: 3e38, kd: 3e38 }),
         ];
         let mut c = controller(laws[law_pick]);

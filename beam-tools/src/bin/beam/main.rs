@@ -42,9 +42,9 @@ use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::{metrics_with, SettleSpec};
 use host_tests::sim::{simulate, SimOptions, SimResult};
 use host_tests::sim::{FaultKind, Injection, Motion, Via};
+use model_core::law::Setting;
 use model_core::{
-    Beam, BeamParams, Law, LawKind, LqgGains, ModalModel, PdFfGains, PdGains, Preset, Shaper,
-    ShaperKind, SmcGains, SmcIGains, StrainSmcGains, Switching, Timing,
+    Beam, BeamParams, Law, LawKind, ModalModel, Preset, Shaper, ShaperKind, Switching, Timing,
 };
 
 use serde_json::json;
@@ -122,6 +122,18 @@ where
             .map(|v| PossibleValue::new(v.name()).help(v.help())),
     )
     .try_map(|s| s.parse::<T>())
+}
+
+/// `--gain NAME=VALUE`: a gain by its name (checked against the law's gains later).
+fn gain_value(s: &str) -> Result<(String, f32), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}`: expected NAME=VALUE, for example w=12"))?;
+    let v: f32 = value
+        .trim()
+        .parse()
+        .map_err(|e| format!("`{value}`: {e}"))?;
+    Ok((name.trim().to_string(), v))
 }
 
 #[derive(Args)]
@@ -216,6 +228,9 @@ struct SimulateArgs {
     /// lqg: disturbance torque the observer assumes, N m.
     #[arg(long, allow_negative_numbers = true)]
     sigma: Option<f32>,
+    /// Any gain of the law by its name (as in gains.toml), NAME=VALUE; repeatable.
+    #[arg(long, value_name = "NAME=VALUE", value_parser = gain_value, allow_negative_numbers = true)]
+    gain: Vec<(String, f32)>,
     #[command(flatten)]
     motion: MoveArgs,
     #[command(flatten)]
@@ -634,77 +649,47 @@ fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> anyhow::Result<()>
 }
 
 fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
-    let reject = |flag: &str| {
-        Err(anyhow!(
-            "--{flag} does not apply to --controller {}",
-            a.controller
-        ))
-    };
-    // Which flags each law takes; the compiler asks for a row when a law is added.
-    let takes: &[&str] = match a.controller {
-        LawKind::Pd | LawKind::PdFf => &["kp", "kd"],
-        LawKind::Smc => &["w", "a", "beta", "switching"],
-        LawKind::SmcStrain => &["w", "a", "beta", "switching", "c", "model-terms"],
-        LawKind::SmcI => &["w", "wi", "c", "a", "beta", "switching"],
-        LawKind::Lqg => &["kp", "kd", "ki", "kq", "sigma"],
-    };
-    for (flag, set) in [
-        ("kp", a.kp.is_some()),
-        ("kd", a.kd.is_some()),
-        ("w", a.w.is_some()),
-        ("a", a.a.is_some()),
-        ("beta", a.beta.is_some()),
-        ("c", a.c.is_some()),
-        ("wi", a.wi.is_some()),
-        ("ki", a.ki.is_some()),
-        ("kq", a.kq.is_some()),
-        ("sigma", a.sigma.is_some()),
-        ("switching", a.switching.is_some()),
-        ("model-terms", a.model_terms),
-    ] {
-        if set && !takes.contains(&flag) {
-            return reject(flag);
-        }
-    }
+    let kind = a.controller;
+    let reject = |flag: &str| anyhow!("--{flag} does not apply to --controller {kind}");
     // Gains not given on the command line come from the compiled gain table (at the
-    // configured payload), or the hand-picked defaults if it has no row for this law.
-    let smc = |g: SmcGains| SmcGains {
-        w: a.w.unwrap_or(g.w),
-        a: a.a.unwrap_or(g.a),
-        beta: a.beta.unwrap_or(g.beta),
-        switching: a.switching.unwrap_or(g.switching),
-    };
-    Ok(match default_law(a.controller, a.plant.tip_mass) {
-        Law::Pd(g) => Law::Pd(PdGains {
-            kp: a.kp.unwrap_or(g.kp),
-            kd: a.kd.unwrap_or(g.kd),
-        }),
-        Law::Smc(g) => Law::Smc(smc(g)),
-        Law::SmcStrain(g) => Law::SmcStrain(StrainSmcGains {
-            smc: smc(g.smc),
-            c: a.c.unwrap_or(g.c),
-            model_terms: a.model_terms || g.model_terms,
-        }),
-        Law::PdFf(g) => Law::PdFf(PdFfGains {
-            kp: a.kp.unwrap_or(g.kp),
-            kd: a.kd.unwrap_or(g.kd),
-        }),
-        Law::SmcI(g) => Law::SmcI(SmcIGains {
-            w: a.w.unwrap_or(g.w),
-            wi: a.wi.unwrap_or(g.wi),
-            c: a.c.unwrap_or(g.c),
-            a: a.a.unwrap_or(g.a),
-            beta: a.beta.unwrap_or(g.beta),
-            switching: a.switching.unwrap_or(g.switching),
-        }),
-        Law::Lqg(g) => Law::Lqg(LqgGains {
-            kp: a.kp.unwrap_or(g.kp),
-            kd: a.kd.unwrap_or(g.kd),
-            ki: a.ki.unwrap_or(g.ki),
-            kq: a.kq.unwrap_or(g.kq),
-            sigma: a.sigma.unwrap_or(g.sigma),
-        }),
-    })
+    // configured payload), or the law's starting gains if it has no row for this law. Each
+    // flag is the gain of that name in the law's specs.
+    let base = default_law(kind, a.plant.tip_mass);
+    let mut values = base.values();
+    let named = [
+        ("kp", a.kp),
+        ("kd", a.kd),
+        ("w", a.w),
+        ("a", a.a),
+        ("beta", a.beta),
+        ("c", a.c),
+        ("wi", a.wi),
+        ("ki", a.ki),
+        ("kq", a.kq),
+        ("sigma", a.sigma),
+    ];
+    let given = named
+        .iter()
+        .filter_map(|&(name, v)| Some((name, v?)))
+        .chain(a.gain.iter().map(|(name, v)| (name.as_str(), *v)));
+    for (name, v) in given {
+        let i = kind.gain_index(name).ok_or_else(|| reject(name))?;
+        values[i] = v;
+    }
+    let mut settings = base.settings();
+    if let Some(s) = a.switching {
+        if !kind.has(Setting::Switching) {
+            return Err(reject("switching"));
+        }
+        settings.switching = s;
+    }
+    if a.model_terms {
+        if !kind.has(Setting::ModelTerms) {
+            return Err(reject("model-terms"));
+        }
+        settings.model_terms = true;
+    }
+    Ok(Law::from_values(kind, values, settings))
 }
 
 /// The law `kind` at the payload (0 kg if none given) from the compiled table, or with the
@@ -767,27 +752,20 @@ fn gains_json(law: &Law) -> serde_json::Value {
     // An f32 gain printed through f64 would show 0.1 as 0.10000000149011612: go by its
     // shortest decimal form instead.
     let f = host_tests::decimal::f32_decimal;
-    match law {
-        Law::Pd(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
-        Law::Smc(g) => json!({
-            "w": f(g.w), "a": f(g.a), "beta": f(g.beta), "switching": g.switching.name(),
-        }),
-        Law::SmcStrain(StrainSmcGains {
-            smc: g,
-            c,
-            model_terms,
-        }) => json!({
-            "w": f(g.w), "a": f(g.a), "beta": f(g.beta), "c": f(*c), "switching": g.switching.name(),
-            "model_terms": model_terms,
-        }),
-        Law::PdFf(g) => json!({"kp": f(g.kp), "kd": f(g.kd)}),
-        Law::Lqg(g) => json!({
-            "kp": f(g.kp), "kd": f(g.kd), "ki": f(g.ki), "kq": f(g.kq), "sigma": f(g.sigma),
-        }),
-        Law::SmcI(g) => json!({
-            "w": f(g.w), "wi": f(g.wi), "c": f(g.c), "a": f(g.a), "beta": f(g.beta), "switching": g.switching.name(),
-        }),
+    let kind = law.kind();
+    let mut out = serde_json::Map::new();
+    for (name, v) in kind.gain_names().iter().zip(law.values()) {
+        out.insert((*name).into(), json!(f(v)));
     }
+    let s = law.settings();
+    for setting in kind.settings() {
+        let v = match setting {
+            Setting::Switching => json!(s.switching.name()),
+            Setting::ModelTerms => json!(s.model_terms),
+        };
+        out.insert(setting.name().into(), v);
+    }
+    serde_json::Value::Object(out)
 }
 
 fn print_summary(run: &SimResult, law: &Law, preset: &str, modes: u8, settle: &SettleSpec) {

@@ -10,9 +10,7 @@ use beam_tools::design::optimize::{
 use clap::{Args, ValueEnum};
 use gain_table::Gains;
 use host_tests::metrics::{CostSpec, Metrics};
-use model_core::{
-    Beam, Law, LawKind, ModalModel, PdGains, Shaper, ShaperKind, StrainSmcGains, Switching,
-};
+use model_core::{Beam, Law, LawKind, ModalModel, PdGains, Shaper, ShaperKind, Switching};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -191,8 +189,8 @@ pub fn run(a: &OptimizeArgs) -> anyhow::Result<()> {
 fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
     let model = ModalModel::<N>::try_build(beam)?;
     let kind = a.controller;
-    if a.model_terms && kind != LawKind::SmcStrain {
-        bail!("--model-terms applies to --controller smc-strain only");
+    if a.model_terms && !kind.has(model_core::law::Setting::ModelTerms) {
+        bail!("--model-terms does not apply to --controller {kind}");
     }
     let mut params = default_params(kind, &model);
     // With a shaper, its frequency is designed with the gains: between the beam's first
@@ -430,16 +428,7 @@ fn neighbour_gains(path: &std::path::Path, a: &OptimizeArgs, spec: &Spec) -> Opt
                 .abs()
                 .total_cmp(&(y.payload_kg - payload).abs())
         })?;
-    let numbers = row.gains.numbers();
-    spec.params
-        .iter()
-        .map(|p| {
-            numbers
-                .iter()
-                .find(|(name, _)| *name == p.name)
-                .map(|n| n.1)
-        })
-        .collect()
+    spec.params.iter().map(|p| row.gains.get(p.name)).collect()
 }
 
 fn write_row(
@@ -493,49 +482,9 @@ fn write_row(
     }
     // Store the f32 gains the drive will run, by their shortest decimals.
     let f = host_tests::decimal::f32_decimal;
-    let gains = match o.best.law {
-        Law::Pd(g) => Gains::Pd(gain_table::PdRow {
-            kp: f(g.kp),
-            kd: f(g.kd),
-        }),
-        Law::Smc(g) => Gains::Smc(gain_table::SmcRow {
-            w: f(g.w),
-            a: f(g.a),
-            beta: f(g.beta),
-            switching: g.switching,
-        }),
-        Law::SmcStrain(StrainSmcGains {
-            smc: g,
-            c,
-            model_terms,
-        }) => Gains::SmcStrain(gain_table::StrainSmcRow {
-            w: f(g.w),
-            a: f(g.a),
-            beta: f(g.beta),
-            c: f(c),
-            switching: g.switching,
-            model_terms,
-        }),
-        Law::PdFf(g) => Gains::PdFf(gain_table::PdRow {
-            kp: f(g.kp),
-            kd: f(g.kd),
-        }),
-        Law::SmcI(g) => Gains::SmcI(gain_table::SmcIRow {
-            w: f(g.w),
-            wi: f(g.wi),
-            c: f(g.c),
-            a: f(g.a),
-            beta: f(g.beta),
-            switching: g.switching,
-        }),
-        Law::Lqg(g) => Gains::Lqg(gain_table::LqgRow {
-            kp: f(g.kp),
-            kd: f(g.kd),
-            ki: f(g.ki),
-            kq: f(g.kq),
-            sigma: f(g.sigma),
-        }),
-    };
+    let law = &o.best.law;
+    let values: Vec<f64> = law.values().iter().map(|&v| f(v)).collect();
+    let gains = Gains::new(law.kind(), &values, law.settings());
     let shaper = beam_tools::design::optimize::motion_for(spec, &o.best.gains).shaper;
     let row = gain_table::Row {
         payload_kg,
