@@ -1,6 +1,6 @@
 //! The README's task table runs as written: every `cargo beam ...` command in it, in the
 //! table's order, from the repository root, with its placeholders (a log, the parameter
-//! file calibration writes, a new gain table) standing for files made here. Commands that
+//! files model and calibration write, a new gain table) standing for files made here. Commands that
 //! need a serial port or QEMU are left to the serial and PIL tests; `cargo slew`, `cargo fw`
 //! and `bash .ci/run` are what CI itself runs.
 
@@ -61,6 +61,7 @@ fn every_cargo_beam_command_in_the_readme_table_runs_as_written() {
             .map(|word| match word {
                 "LOG.csv" => log.display().to_string(),
                 "found.toml" => file("found.toml").display().to_string(),
+                "mine.toml" => file("mine.toml").display().to_string(),
                 "my-gains.toml" => file("my-gains.toml").display().to_string(),
                 _ => word.to_string(),
             })

@@ -183,6 +183,10 @@ struct ModelArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Also write the plant's parameters to FILE, as `calibrate --out` does: a starting
+    /// point to edit for your own rig, or a `--params` file for the other commands.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -615,7 +619,20 @@ fn beam(plant: &PlantArgs) -> anyhow::Result<Beam> {
 
 fn run_model(a: &ModelArgs) -> anyhow::Result<()> {
     let beam = beam(&a.plant)?;
-    with_modes!(a.plant.modes, print_model(&beam, a))
+    with_modes!(a.plant.modes, print_model(&beam, a))?;
+    if let Some(path) = &a.out {
+        let comment = format!(
+            "the {} plant, written by beam model",
+            a.plant.preset_label()
+        );
+        let text = beam_tools::io::params_file::render(beam.params(), &comment);
+        io::write_atomically(path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| path.display().to_string())?;
+        if !a.json {
+            println!("parameters written to {}", path.display());
+        }
+    }
+    Ok(())
 }
 
 fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> anyhow::Result<()> {
