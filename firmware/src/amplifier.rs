@@ -25,7 +25,7 @@ pub struct TorqueScale {
 pub struct Drive {
     /// Duty in counts of the PWM's `max_duty`.
     pub duty: u16,
-    /// True for positive torque (the direction pin high).
+    /// True for positive torque.
     pub positive: bool,
 }
 
@@ -65,9 +65,11 @@ pub enum Error<P, D, E> {
     Enable(E),
 }
 
-/// The amplifier's three inputs and its fault output.
+/// The amplifier's three inputs and its fault output. `REVERSED`: positive torque needs the
+/// direction pin low (the table's `[drive]` `torque_reversed`); a constant, so the tick
+/// does no more work for it.
 #[derive(Debug)]
-pub struct Amplifier<PWM, DIR, EN, FLT> {
+pub struct Amplifier<PWM, DIR, EN, FLT, const REVERSED: bool = false> {
     pwm: PWM,
     dir: DIR,
     en: EN,
@@ -82,7 +84,9 @@ pub type AmpError<PWM, DIR, EN> = Error<
     <EN as embedded_hal::digital::ErrorType>::Error,
 >;
 
-impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin> Amplifier<PWM, DIR, EN, FLT> {
+impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin, const REVERSED: bool>
+    Amplifier<PWM, DIR, EN, FLT, REVERSED>
+{
     /// Takes the signals and puts the amplifier in its safe state (disabled, zero duty).
     pub fn new(
         pwm: PWM,
@@ -118,7 +122,7 @@ impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin> Amplifier<
         // Direction before duty, duty before enable: no instant drives the old duty the
         // new way round.
         self.dir
-            .set_state(d.positive.into())
+            .set_state((d.positive != REVERSED).into())
             .map_err(Error::Direction)?;
         self.pwm.set_duty_cycle(d.duty).map_err(Error::Pwm)?;
         self.en.set_high().map_err(Error::Enable)
@@ -136,8 +140,8 @@ impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin> Amplifier<
     }
 }
 
-impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin> crate::drive::Actuator
-    for Amplifier<PWM, DIR, EN, FLT>
+impl<PWM: SetDutyCycle, DIR: OutputPin, EN: OutputPin, FLT: InputPin, const REVERSED: bool>
+    crate::drive::Actuator for Amplifier<PWM, DIR, EN, FLT, REVERSED>
 {
     type Error = AmpError<PWM, DIR, EN>;
 
@@ -174,7 +178,7 @@ mod tests {
     #[test]
     fn the_fault_line_is_active_low_and_an_unreadable_line_is_a_fault() {
         let bench = crate::fakes::Bench::new();
-        let mut amp = Amplifier::new(
+        let mut amp = Amplifier::<_, _, _, _, false>::new(
             crate::fakes::Pwm(&bench),
             crate::fakes::Direction(&bench),
             crate::fakes::Enable(&bench),
@@ -246,8 +250,14 @@ mod tests {
             Pin::set(State::High),
             Pin::set(State::Low),
         ]);
-        let mut amp =
-            Amplifier::new(pwm.clone(), dir.clone(), en.clone(), released(), SCALE).unwrap();
+        let mut amp = Amplifier::<_, _, _, _, false>::new(
+            pwm.clone(),
+            dir.clone(),
+            en.clone(),
+            released(),
+            SCALE,
+        )
+        .unwrap();
         amp.apply(&command(Mode::Slewing, -3.0)).unwrap();
         amp.apply(&command(Mode::Holding, 12.0)).unwrap();
         amp.apply(&TorqueCommand {
@@ -261,12 +271,48 @@ mod tests {
     }
 
     #[test]
+    fn a_reversed_amplifier_sets_the_direction_pin_the_other_way() {
+        let mut pwm = PwmMock::new(&[
+            Pwm::set_duty_cycle(0),
+            Pwm::max_duty_cycle(4200),
+            Pwm::set_duty_cycle(1260),
+            Pwm::max_duty_cycle(4200),
+            Pwm::set_duty_cycle(1260),
+        ]);
+        let mut dir = PinMock::new(&[Pin::set(State::High), Pin::set(State::Low)]);
+        let mut en = PinMock::new(&[
+            Pin::set(State::Low),
+            Pin::set(State::High),
+            Pin::set(State::High),
+        ]);
+        let mut amp = Amplifier::<_, _, _, _, true>::new(
+            pwm.clone(),
+            dir.clone(),
+            en.clone(),
+            released(),
+            SCALE,
+        )
+        .unwrap();
+        amp.apply(&command(Mode::Slewing, -3.0)).unwrap();
+        amp.apply(&command(Mode::Slewing, 3.0)).unwrap();
+        pwm.done();
+        dir.done();
+        en.done();
+    }
+
+    #[test]
     fn idle_never_enables_even_with_a_torque() {
         let mut pwm = PwmMock::new(&[Pwm::set_duty_cycle(0), Pwm::set_duty_cycle(0)]);
         let mut dir = PinMock::new(&[]);
         let mut en = PinMock::new(&[Pin::set(State::Low), Pin::set(State::Low)]);
-        let mut amp =
-            Amplifier::new(pwm.clone(), dir.clone(), en.clone(), released(), SCALE).unwrap();
+        let mut amp = Amplifier::<_, _, _, _, false>::new(
+            pwm.clone(),
+            dir.clone(),
+            en.clone(),
+            released(),
+            SCALE,
+        )
+        .unwrap();
         amp.apply(&command(Mode::Idle, 3.0)).unwrap();
         pwm.done();
         dir.done();
@@ -279,7 +325,13 @@ mod tests {
         let mut pwm = PwmMock::new(&[Pwm::set_duty_cycle(0)]);
         let mut dir = PinMock::new(&[]);
         let mut en = PinMock::new(&[Pin::set(State::Low).with_error(err.clone())]);
-        let result = Amplifier::new(pwm.clone(), dir.clone(), en.clone(), released(), SCALE);
+        let result = Amplifier::<_, _, _, _, false>::new(
+            pwm.clone(),
+            dir.clone(),
+            en.clone(),
+            released(),
+            SCALE,
+        );
         assert!(matches!(result, Err(Error::Enable(_))));
         pwm.done();
         dir.done();

@@ -17,7 +17,7 @@
 
 use embedded_hal_bus::spi::ExclusiveDevice;
 use firmware::ads1220::{self, Ads1220};
-use firmware::amplifier::{Amplifier, TorqueScale};
+use firmware::amplifier::Amplifier;
 use firmware::config::{self, MOVE_KNOTS};
 use firmware::drive::{Drive, QuadratureCounter};
 use firmware::operator::Operator;
@@ -35,7 +35,7 @@ use stm32f4xx_hal::{
 
 /// The board's crystal, Hz.
 pub const HSE_HZ: u32 = 8_000_000;
-pub use firmware::config::{FULL_SCALE_TORQUE_NM, PWM_HZ, SYSCLK_HZ};
+pub use firmware::config::{PWM_HZ, SYSCLK_HZ};
 /// Control loop rate, Hz (model-core's `DEFAULT_TS_S` is its period).
 pub use model_core::LOOP_HZ;
 /// Bridge ADC SPI clock, Hz (the ADS1220 allows up to 6.6 MHz).
@@ -69,7 +69,8 @@ pub type AmpFault = Pin<'B', 14, Input>;
 /// The bridge ADC on this board.
 pub type BoardAdc = Ads1220<AdcBus, AdcReady>;
 /// The amplifier on this board.
-pub type BoardAmplifier = Amplifier<TorquePwm, Direction, Enable, AmpFault>;
+pub type BoardAmplifier =
+    Amplifier<TorquePwm, Direction, Enable, AmpFault, { firmware::config::TORQUE_REVERSED }>;
 /// The drive on this board.
 pub type BoardDrive = Drive<MOVE_KNOTS, Encoder, BoardAdc, BoardAmplifier>;
 /// The operator's buttons.
@@ -133,9 +134,7 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         direction,
         enable,
         fault,
-        TorqueScale {
-            full_scale_nm: FULL_SCALE_TORQUE_NM,
-        },
+        firmware::config::TORQUE_SCALE,
     )
     .map_err(|_| BringUpError::Amplifier)?;
 

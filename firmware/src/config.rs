@@ -51,6 +51,13 @@ pub const PWM_PERIOD_COUNTS: u16 = (SYSCLK_HZ / PWM_HZ) as u16;
 /// constant; the table's `[drive]`): at least the controller's torque limit, so saturation
 /// never clips twice (the table's build checks it).
 pub const FULL_SCALE_TORQUE_NM: f32 = DRIVE.torque_full_scale_nm;
+/// The amplifier's scale (the table's `[drive]`).
+pub const TORQUE_SCALE: crate::amplifier::TorqueScale = crate::amplifier::TorqueScale {
+    full_scale_nm: FULL_SCALE_TORQUE_NM,
+};
+/// Positive torque needs the amplifier's direction pin low (the table's `[drive]`): the
+/// amplifier's `REVERSED` parameter.
+pub const TORQUE_REVERSED: bool = DRIVE.torque_reversed;
 
 // The period fits the timer's 16 bits and the loop runs at model-core's rate.
 const _: () = assert!(SYSCLK_HZ / PWM_HZ <= u16::MAX as u32);

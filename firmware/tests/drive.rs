@@ -23,7 +23,7 @@ fn drive() -> (TestDrive, &'static Bench) {
     let b: &'static Bench = Box::leak(Box::default());
     b.converting.set(true);
     let adc = Ads1220::new(Bus(b), DataReady(b));
-    let amp = Amplifier::new(
+    let amp = Amplifier::<_, _, _, _, false>::new(
         Pwm(b),
         Direction(b),
         Enable(b),

@@ -10,10 +10,16 @@
 //! adc_bits = 24                   # the strain converter's resolution
 //! strain_full_scale = 0.005       # strain at the converter's positive full scale
 //! torque_full_scale_nm = 10.0     # torque at 100 % PWM duty
+//! encoder_reversed = false        # the counter counts down as the hub turns positive
+//! strain_reversed = false         # positive strain reads as negative codes
+//! torque_reversed = false         # positive torque needs the direction pin low
 //! ```
 //!
-//! The sign conventions are fixed: the encoder counts up, and the amplifier's direction pin
-//! is high, for positive hub angle and torque; wire the rig to them.
+//! The conventions: positive hub angle and torque are the same way round (counter-clockwise
+//! seen from above the hub, by the shipped drive's wiring), and positive strain is the
+//! root's surface stretched when the hub accelerates positive. The three `*_reversed` keys
+//! say where a rig's wiring differs, so it need not be rewired; they are applied as signs of
+//! the scales when the drive is built, at no cost in the tick.
 
 use crate::Row;
 use beam_kinds::LawKind;
@@ -39,6 +45,19 @@ pub struct DriveSpec {
     /// Torque at 100 % PWM duty, N m (the amplifier's current scale times the motor's torque
     /// constant).
     pub torque_full_scale_nm: f64,
+    /// The encoder counts down as the hub turns positive.
+    #[serde(skip_serializing_if = "is_false")]
+    pub encoder_reversed: bool,
+    /// Positive strain reads as negative converter codes.
+    #[serde(skip_serializing_if = "is_false")]
+    pub strain_reversed: bool,
+    /// Positive torque needs the amplifier's direction pin low.
+    #[serde(skip_serializing_if = "is_false")]
+    pub torque_reversed: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl Default for DriveSpec {
@@ -51,6 +70,9 @@ impl Default for DriveSpec {
             adc_bits: 24,
             strain_full_scale: 5000e-6,
             torque_full_scale_nm: 10.0,
+            encoder_reversed: false,
+            strain_reversed: false,
+            torque_reversed: false,
         }
     }
 }
@@ -133,16 +155,19 @@ impl DriveSpec {
             "/// The drive the table configures (its `[drive]`).\n\
              pub const DRIVE: crate::gains::DriveConfig = crate::gains::DriveConfig {{\n    \
              law: ::beam_kinds::LawKind::{:?},\n    payload_kg: {:?},\n    \
-             encoder: crate::measure::EncoderSpec {{ counts_per_rev: {}, counter_bits: {} }},\n    \
-             adc: crate::measure::AdcSpec {{ bits: {}, full_scale_strain: {:?} }},\n    \
-             torque_full_scale_nm: {:?},\n}};\n",
+             encoder: crate::measure::EncoderSpec {{ counts_per_rev: {}, counter_bits: {}, reversed: {} }},\n    \
+             adc: crate::measure::AdcSpec {{ bits: {}, full_scale_strain: {:?}, reversed: {} }},\n    \
+             torque_full_scale_nm: {:?},\n    torque_reversed: {},\n}};\n",
             self.law,
             self.payload_kg as f32,
             self.encoder_counts_per_rev,
             self.encoder_counter_bits,
+            self.encoder_reversed,
             self.adc_bits,
             self.strain_full_scale,
-            self.torque_full_scale_nm as f32
+            self.strain_reversed,
+            self.torque_full_scale_nm as f32,
+            self.torque_reversed
         )
     }
 }

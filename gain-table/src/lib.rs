@@ -899,6 +899,18 @@ cost_j = 2.0
             .unwrap_err()
             .message
             .contains("unknown field"));
+        // A rig wired the other way round: the three directions, rendered only when set.
+        let r = with("encoder_reversed = true\nstrain_reversed = true\ntorque_reversed = true")
+            .unwrap();
+        assert!(r.drive.encoder_reversed && r.drive.strain_reversed && r.drive.torque_reversed);
+        assert_eq!(parse(&render(&r), "g").unwrap(), r);
+        let source = generate_rust(&r).unwrap();
+        assert!(
+            source.contains("counter_bits: 16, reversed: true"),
+            "{source}"
+        );
+        assert!(source.contains("torque_reversed: true"), "{source}");
+        assert!(!render(&parse(GOOD, "g").unwrap()).contains("reversed"));
         // PD runs on its baseline gains without rows.
         assert_eq!(with("law = \"pd\"").unwrap().drive.law, LawKind::Pd);
         let source = generate_rust(&t).unwrap();

@@ -63,17 +63,25 @@ impl Sensors {
         }
     }
 
-    /// The encoder count (unwrapped, quantised toward minus infinity) at hub angle `theta`.
+    /// The encoder count (unwrapped, quantised toward minus infinity) at hub angle `theta`;
+    /// a reversed encoder counts the same edges down.
     pub fn count(&self, theta: f64) -> i64 {
-        ((theta - self.theta_home) / self.cfg.encoder.rad_per_count()).floor() as i64
+        let up = ((theta - self.theta_home) / self.cfg.encoder.rad_per_count()).floor() as i64;
+        if self.cfg.encoder.reversed {
+            -up
+        } else {
+            up
+        }
     }
 
     /// The raw readings for hub angle `theta` and root strain `strain`.
     pub fn read(&mut self, theta: f64, strain: f64, amp_fault: bool) -> RawMeasurement {
         let raw_counter = (self.count(theta) as u64 & self.cfg.encoder.mask() as u64) as u32;
         let noisy = strain + self.noise.sample(&mut self.rng);
-        let code =
-            (noisy / self.cfg.adc.strain_per_code()).round() + self.cfg.adc_offset_code as f64;
+        // A reversed bridge gives the same code magnitudes with the other sign.
+        let up = (noisy / self.cfg.adc.strain_per_code()).round();
+        let up = if self.cfg.adc.reversed { -up } else { up };
+        let code = up + self.cfg.adc_offset_code as f64;
         let code = code.clamp(
             self.cfg.adc.min_code() as f64,
             self.cfg.adc.max_code() as f64,

@@ -424,7 +424,7 @@ fn inject(
         }
         FaultKind::StrainDisconnected => raw.strain_root_code = adc.max_code(),
         FaultKind::StrainDrift { per_s } => {
-            let drift = (per_s * (t - f.at_s) / adc.strain_per_code()).round();
+            let drift = (per_s * (t - f.at_s) / adc.signed_strain_per_code()).round();
             let code = raw.strain_root_code as f64 + drift;
             raw.strain_root_code = code.clamp(adc.min_code() as f64, adc.max_code() as f64) as i32;
         }

@@ -337,7 +337,9 @@ impl<const K: usize> Controller<K> {
             .ok_or(bad("velocity_cutoff_hz", ParamErrorKind::NotPositive))?;
         let strain_rate_lpf = LowPass::from_cutoff(s.strain_rate_cutoff_hz, s.ts_s)
             .ok_or(bad("strain_rate_cutoff_hz", ParamErrorKind::NotPositive))?;
-        let rad_per_count = s.encoder.rad_per_count();
+        // The sensors' directions as the scales' signs: nothing more in the tick.
+        let signed_rad_per_count = s.encoder.signed_rad_per_count();
+        let rad_per_count = libm::fabs(signed_rad_per_count);
         let max_counts = libm::ceil(s.max_speed_rad_s as f64 * s.ts_s as f64 / rad_per_count);
         // The wrapped difference is only unambiguous below half the counter's range.
         let half_range = (1i64 << (s.encoder.counter_bits - 1)) - 1;
@@ -348,9 +350,9 @@ impl<const K: usize> Controller<K> {
             settings,
             law,
             spline,
-            rad_per_count: rad_per_count as f32,
-            rad_per_count_f64: rad_per_count,
-            strain_per_code: s.adc.strain_per_code() as f32,
+            rad_per_count: signed_rad_per_count as f32,
+            rad_per_count_f64: signed_rad_per_count,
+            strain_per_code: s.adc.signed_strain_per_code() as f32,
             rails: (s.adc.min_code(), s.adc.max_code()),
             max_counts_per_tick: max_counts as i64,
             velocity_lpf,

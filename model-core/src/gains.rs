@@ -39,6 +39,8 @@ pub struct DriveConfig {
     /// Torque at 100 % PWM duty, N m (at least the plant's torque limit, so saturation never
     /// clips twice).
     pub torque_full_scale_nm: f32,
+    /// Positive torque needs the amplifier's direction pin low.
+    pub torque_reversed: bool,
 }
 
 include!(concat!(env!("OUT_DIR"), "/gain_table.rs"));

@@ -17,6 +17,10 @@ pub struct EncoderSpec {
     pub counts_per_rev: u32,
     /// Width of the hardware counter, bits (1 to 32).
     pub counter_bits: u8,
+    /// The counter counts down as the hub turns positive (an encoder wired or mounted the
+    /// other way round). Applied as a negative scale when the controller is built, so the
+    /// tick does no more work for it.
+    pub reversed: bool,
 }
 
 impl EncoderSpec {
@@ -24,11 +28,18 @@ impl EncoderSpec {
     pub const DEFAULT: EncoderSpec = EncoderSpec {
         counts_per_rev: 16384,
         counter_bits: 16,
+        reversed: false,
     };
 
-    /// Radians per count.
+    /// Radians per count (the encoder's resolution, positive).
     pub fn rad_per_count(&self) -> f64 {
         2.0 * core::f64::consts::PI / self.counts_per_rev as f64
+    }
+
+    /// Radians of hub angle per count up: [`EncoderSpec::rad_per_count`], negative when
+    /// [`reversed`](EncoderSpec::reversed).
+    pub fn signed_rad_per_count(&self) -> f64 {
+        signed(self.rad_per_count(), self.reversed)
     }
 
     /// The counter's modulus minus one, as a mask.
@@ -49,6 +60,9 @@ pub struct AdcSpec {
     pub bits: u8,
     /// Strain at positive full scale (dimensionless, 5000e-6 = 5000 microstrain).
     pub full_scale_strain: f64,
+    /// Positive strain reads as negative codes (the bridge or its amplifier wired the other
+    /// way round); applied as a negative scale when the controller is built.
+    pub reversed: bool,
 }
 
 impl AdcSpec {
@@ -56,6 +70,7 @@ impl AdcSpec {
     pub const DEFAULT: AdcSpec = AdcSpec {
         bits: 24,
         full_scale_strain: 5000e-6,
+        reversed: false,
     };
 
     /// Most negative code (the lower rail).
@@ -73,9 +88,24 @@ impl AdcSpec {
         self.full_scale_strain / (1i64 << (self.bits.clamp(2, 32) - 1)) as f64
     }
 
+    /// Strain per code up: [`AdcSpec::strain_per_code`], negative when
+    /// [`reversed`](AdcSpec::reversed).
+    pub fn signed_strain_per_code(&self) -> f64 {
+        signed(self.strain_per_code(), self.reversed)
+    }
+
     /// True when `code` sits at either rail: a saturated or disconnected bridge.
     pub fn at_rail(&self, code: i32) -> bool {
         code <= self.min_code() || code >= self.max_code()
+    }
+}
+
+/// `-x` for a reversed sensor, else `x` (a sign flip, not a soft-float multiply on the M4F).
+fn signed(x: f64, reversed: bool) -> f64 {
+    if reversed {
+        -x
+    } else {
+        x
     }
 }
 
@@ -270,7 +300,7 @@ mod tests {
             start in any::<u32>(),
             steps in prop::collection::vec(any::<i64>(), 1..300),
         ) {
-            let spec = EncoderSpec { counts_per_rev: 1000, counter_bits: bits };
+            let spec = EncoderSpec { counts_per_rev: 1000, counter_bits: bits, reversed: false };
             let half = 1i64 << (bits - 1);
             let mut ext = CounterExtender::default();
             let mut truth: i64 = start as i64;

@@ -22,7 +22,7 @@ mod pil {
     use core::cell::UnsafeCell;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use firmware::ads1220::Ads1220;
-    use firmware::amplifier::{Amplifier, TorqueScale};
+    use firmware::amplifier::Amplifier;
     use firmware::config::{
         build_commanded, build_controller_for, nearest, sequence_for, MOVE_KNOTS, SLEW_FROM_RAD,
     };
@@ -104,7 +104,13 @@ mod pil {
             MOVE_KNOTS,
             Counter<'_>,
             Ads1220<Bus<'_>, DataReady<'_>>,
-            Amplifier<Pwm<'_>, Direction<'_>, Enable<'_>, Line<'_>>,
+            Amplifier<
+                Pwm<'_>,
+                Direction<'_>,
+                Enable<'_>,
+                Line<'_>,
+                { firmware::config::TORQUE_REVERSED },
+            >,
         >,
         DriveError,
     > {
@@ -113,9 +119,7 @@ mod pil {
             Direction(bench),
             Enable(bench),
             Line(bench),
-            TorqueScale {
-                full_scale_nm: firmware::config::FULL_SCALE_TORQUE_NM,
-            },
+            firmware::config::TORQUE_SCALE,
         )
         .map_err(|_| DriveError::Config)?;
         Ok(Drive::new(
