@@ -297,7 +297,7 @@ fn the_torque_replay_stays_stable_at_500_hz_with_the_hub_at_rest_under_coulomb_f
     );
 }
 
-/// docs/calibrate-your-rig.md's "another rig" (docs/other-rig.sh): a steel strip on a geared hub.
+/// docs/results.md's "another rig" (docs/other-rig.sh): a steel strip on a geared hub.
 fn other_rig() -> (BeamParams, BeamParams) {
     let (e, w, t) = (200e9, 0.03, 0.0012);
     let truth = BeamParams {
@@ -377,7 +377,7 @@ fn other_rig_log(
 
 #[test]
 fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
-    // The harder test of the other rig (docs/calibrate-your-rig.md): from one 60 deg log (500 Hz, torque noise, torque read 5 %
+    // The harder test of the other rig (docs/results.md): from one 60 deg log (500 Hz, torque noise, torque read 5 %
     // high) the first clamped frequency within 1 %, EI within 5 %, intervals that cover the
     // truth (on this log, for every noise draw tried; not on the same move backwards,
     // below), and a held-out 90 deg move predicted (hub prescribed) within 15 % of its RMS

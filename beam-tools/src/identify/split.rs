@@ -166,7 +166,7 @@ impl SplitReport {
 /// nor the bootstrap see. Step 1's shift is its fit polished again (Levenberg-Marquardt
 /// from the result) on the strain of the beam driven by each other hub; step 2's, the
 /// balance refitted with R from it. The encoder's part is the RMS shift with the angle
-/// quantised again (docs/calibrate-your-rig.md, for the figures).
+/// quantised again (docs/results.md, "Calibration on other rigs", for the figures).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct WindowShift {
     /// The parameter.
