@@ -384,6 +384,11 @@ pub fn leading_modes<const N: usize, const M: usize>(
 }
 
 /// Designs the observer and the state feedback for `model` sampled at `ts_s`.
+///
+/// One function of about 190 lines on purpose: its steps (the continuous model, its
+/// sampling, the two Riccati equations, the reference beam and the feedforward) run once,
+/// in order, and share a dozen fixed-size matrices; split, each piece would take most of
+/// them as arguments and read no clearer.
 pub fn design<const N: usize>(
     model: &ModalModel<N>,
     weights: &LqgWeights,

@@ -5,7 +5,7 @@
 use crate::{named, SettleArgs};
 use anyhow::{bail, Context};
 use beam_tools::link::drive_script;
-use beam_tools::link::pil_host::{build_plugin, paths, run_pil_commands, PilConfig};
+use beam_tools::link::pil_host::{build_plugin, paths, run_pil_commands, InsnStats, PilConfig};
 use beam_wire::command::{Command, Outcome, Request};
 use clap::Args;
 use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
@@ -137,6 +137,42 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
     if !(a.home.is_finite() && a.home.abs() <= 180.0) {
         bail!("--home {} must be within +-180 deg", a.home);
     }
+    let script = read_script(a)?;
+    if let Some(port) = &a.port {
+        // Checked whole before anything reaches the drive.
+        if let Some(i) = script
+            .iter()
+            .position(|s| matches!(s, Step::Attach(_) | Step::AmpFault(_)))
+        {
+            bail!("step {}: `attach` and `fault` act on the simulated beam; they have no meaning with --port (nothing was sent)", i + 1);
+        }
+        return run_port(a, port, &script);
+    }
+    let asked: f64 = script
+        .iter()
+        .map(|s| match s {
+            Step::Wait(t) => *t,
+            Step::UntilDone { settle_s, max_s } => settle_s + max_s,
+            _ => 0.0,
+        })
+        .sum();
+    if asked > MAX_SIM_S {
+        bail!(
+            "the script may take {asked:.0} s of simulated time (waits, and each `done`'s --done-max and settling); at most {MAX_SIM_S} s"
+        );
+    }
+    let (run, pil) = run_simulated(a, &script)?;
+    let moves = move_results(&run, &a.settle.spec()?);
+    report(a, &run, &moves, pil);
+    if let Some((false, ulps, _)) = pil {
+        bail!("the PIL drive differs from the host build ({ulps} ulps)");
+    }
+    refusals(run.exchanges.iter().map(|e| &e.reply.outcome))
+}
+
+/// The script: from the command line, a file or stdin, or the built-in session; each
+/// `done` waits as long as `--done-max` says.
+fn read_script(a: &DriveArgs) -> anyhow::Result<Vec<Step>> {
     let script = match (&a.script, a.session) {
         (None, false) if !a.words.is_empty() => {
             let text = a.words.join(" ").replace(';', "\n");
@@ -164,29 +200,19 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
             other => other,
         })
         .collect();
-    if let Some(port) = &a.port {
-        // Checked whole before anything reaches the drive.
-        if let Some(i) = script
-            .iter()
-            .position(|s| matches!(s, Step::Attach(_) | Step::AmpFault(_)))
-        {
-            bail!("step {}: `attach` and `fault` act on the simulated beam; they have no meaning with --port (nothing was sent)", i + 1);
-        }
-        return run_port(a, port, &script);
-    }
-    let asked: f64 = script
-        .iter()
-        .map(|s| match s {
-            Step::Wait(t) => *t,
-            Step::UntilDone { settle_s, max_s } => settle_s + max_s,
-            _ => 0.0,
-        })
-        .sum();
-    if asked > MAX_SIM_S {
-        bail!(
-            "the script may take {asked:.0} s of simulated time (waits, and each `done`'s --done-max and settling); at most {MAX_SIM_S} s"
-        );
-    }
+    Ok(script)
+}
+
+/// The PIL run's comparison with the host build: identical, the largest difference in ulps,
+/// and the instructions per tick.
+type PilSummary = (bool, u64, Option<InsnStats>);
+
+/// The script run against the simulated beam, on the host (`--sim`) or with the firmware
+/// under QEMU (`--pil`, with its comparison).
+fn run_simulated(
+    a: &DriveArgs,
+    script: &[Step],
+) -> anyhow::Result<(CommandedRun, Option<PilSummary>)> {
     // The simulated beam is the plant the drive was built for (the compiled table's), with
     // the payload on it.
     let params = model_core::gains::PLANT.params_with(a.payload);
@@ -210,7 +236,7 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
             controller: a.controller,
             payload_kg: a.payload as f32,
         };
-        let out = run_pil_commands::<3>(params, &cfg, home, &script, sensors)?;
+        let out = run_pil_commands::<3>(params, &cfg, home, script, sensors)?;
         let summary = (out.identical, out.max_ulps, out.insns);
         (out.pil, Some(summary))
     } else {
@@ -219,12 +245,16 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
             a.payload as f32,
             a.controller,
             home,
-            &script,
+            script,
             sensors,
         )?;
         (run, None)
     };
-    let moves = move_results(&run, &a.settle.spec()?);
+    Ok((run, pil))
+}
+
+/// What ran: every exchange, each move's figures, and the PIL's comparison (JSON or text).
+fn report(a: &DriveArgs, run: &CommandedRun, moves: &[MoveResult], pil: Option<PilSummary>) {
     if a.json {
         let exchanges: Vec<_> = run
             .exchanges
@@ -270,7 +300,7 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         for e in &run.exchanges {
             print_exchange(e.t, &e.request, &e.reply.outcome);
         }
-        for m in &moves {
+        for m in moves {
             let f = |x: Option<f64>, d: usize| x.map_or("-".into(), |v| format!("{v:.d$}"));
             println!(
                 "  {:<28} settled {} after its command; reference ends {:.3} s after it; 0.25 s later: hub error {} deg, RMS root strain {} ue",
@@ -299,10 +329,6 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
             }
         }
     }
-    if let Some((false, ulps, _)) = pil {
-        bail!("the PIL drive differs from the host build ({ulps} ulps)");
-    }
-    refusals(run.exchanges.iter().map(|e| &e.reply.outcome))
 }
 
 /// One exchange as a line: when, the request's number and words, the reply.
