@@ -397,6 +397,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
         fit_gauge_position: false,
         fit_offset: false,
         evals: 600,
+        encoder_step_rad: None,
     };
     let (found, sensors, report) = calibrate_split::<3>(&exps, &guess, &options).unwrap();
     let (tm, fm) = (model(truth), model(found));
@@ -574,6 +575,7 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
         fit_gauge_position: false,
         fit_offset: false,
         evals: 600,
+        encoder_step_rad: None,
     };
     let exps = logs(12345);
     // One mass alone is refused (it moves the strain too little: the density came out

@@ -1350,3 +1350,39 @@ fn calibrate_cuts_a_log_of_several_moves_and_by_time_and_drops_an_unwired_gauge(
         assert!(err.contains(says), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn calibrate_takes_the_encoders_counts_when_given() {
+    let dir = scratch("encoder-counts");
+    let log = dir.join("log.csv");
+    let log = log.to_str().unwrap();
+    let out = beam(&["simulate", "--controller", "pd", "--csv", log]);
+    assert!(out.status.success());
+    // Found in the angle: the simulated drive's 16384 counts a turn.
+    let found = beam(&["calibrate", log]);
+    let text = String::from_utf8_lossy(&found.stdout);
+    assert!(text.contains("(16384 counts a turn)"), "{text}");
+    // Given: said so, and used whatever the angle shows.
+    let given = beam(&["calibrate", log, "--encoder-counts", "4096"]);
+    let text = String::from_utf8_lossy(&given.stdout);
+    assert!(
+        given.status.success(),
+        "{}",
+        String::from_utf8_lossy(&given.stderr)
+    );
+    assert!(
+        text.contains("encoder step (given): 1.534e-3 rad (4096 counts a turn)"),
+        "{text}"
+    );
+    let paper = beam(&[
+        "calibrate",
+        log,
+        "--method",
+        "paper",
+        "--encoder-counts",
+        "4096",
+    ]);
+    assert_eq!(paper.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&paper.stderr).contains("apply to --method split"));
+    std::fs::remove_dir_all(dir).ok();
+}

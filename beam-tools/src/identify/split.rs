@@ -124,9 +124,11 @@ pub struct SplitReport {
     /// How far the torque balance's results move with the prescribed hub smoothed
     /// differently (counted in `uncertainty`).
     pub window_shift: Vec<WindowShift>,
-    /// Each log's encoder step found in its angle, rad (`None`: not on a grid, so no
-    /// encoder term from it).
+    /// Each log's encoder step found in its angle, or given, rad (`None`: not on a grid, so
+    /// no encoder term from it).
     pub encoder_step_rad: Vec<Option<f64>>,
+    /// The step was given (`SplitOptions::encoder_step_rad`), not found.
+    pub encoder_step_given: bool,
     /// Parameters that ended on a bound: of step 1's search, or friction the balance found
     /// negative and that was set to zero.
     pub at_bound: Vec<AtBound>,
@@ -235,6 +237,10 @@ pub struct SplitOptions {
     pub fit_offset: bool,
     /// COBYLA evaluations per local search of step 1.
     pub evals: usize,
+    /// The encoder's step, rad, when the user gives it; `None`: found in each log's angle
+    /// ([`encoder_step`]), which cannot tell an encoder's step from a log's decimal rounding
+    /// when the rounding is the coarser.
+    pub encoder_step_rad: Option<f64>,
 }
 
 /// Fits one parameter set to all `exps` from `guess` with an `N`-mode model. Returns the
@@ -252,7 +258,7 @@ pub fn calibrate_split<const N: usize>(
     let reference = options.reference;
     let g = starting_params(exps, guess, reference)?;
     let window = hub_window_s(&g);
-    let views = HubViews::of(exps, window);
+    let views = HubViews::of(exps, window, options.encoder_step_rad);
     let beam = fit_beam::<N>(
         exps,
         &views.hubs,
@@ -354,6 +360,7 @@ pub fn calibrate_split<const N: usize>(
             tradeoffs,
             window_shift,
             encoder_step_rad: views.steps,
+            encoder_step_given: options.encoder_step_rad.is_some(),
             at_bound,
         },
     ))
@@ -403,7 +410,7 @@ struct HubViews {
 }
 
 impl HubViews {
-    fn of(exps: &[Experiment], window: f64) -> Self {
+    fn of(exps: &[Experiment], window: f64, given_step: Option<f64>) -> Self {
         let hubs = exps.iter().map(|e| HubMotion::of(&e.log, window)).collect();
         let alt_hubs = WINDOW_FACTORS
             .iter()
@@ -417,7 +424,10 @@ impl HubViews {
             .collect();
         let dt = exps[0].log.t[1] - exps[0].log.t[0];
         let half = ((window / dt).round() as usize).max(2);
-        let steps: Vec<Option<f64>> = exps.iter().map(|e| encoder_step(&e.log.theta)).collect();
+        let steps: Vec<Option<f64>> = exps
+            .iter()
+            .map(|e| given_step.or_else(|| encoder_step(&e.log.theta)))
+            .collect();
         let requantised_logs: Vec<Vec<Log>> = if steps.iter().any(Option::is_some) {
             ENCODER_PHASES
                 .iter()

@@ -50,6 +50,11 @@ pub struct CalibrateArgs {
     /// cannot tell the two apart (docs/calibrate-your-rig.md).
     #[arg(long, value_name = "KG_M3")]
     known_density: Option<f64>,
+    /// With `--method split`: the encoder's counts per turn (after quadrature decoding), when
+    /// the log's angle is printed more coarsely than the encoder counts or not on its grid
+    /// [default: its step is found in each log's angle].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(4..))]
+    encoder_counts: Option<u32>,
     /// The weighed tip mass each log was recorded with, kg, one per log in the logs' order
     /// [default: every log with the starting parameters' (--tip-mass)]. With `--method
     /// split` and two different masses (the same move logged with and without a known
@@ -129,9 +134,13 @@ fn check(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.windows.as_ref().is_some_and(|w| w.len() != 3) {
         bail!("--windows takes three times: START,END,SETTLE_END");
     }
-    if (a.known_density.is_some() || a.fit_gauge_position || a.torque_offset) && a.method != "split"
+    if (a.known_density.is_some()
+        || a.fit_gauge_position
+        || a.torque_offset
+        || a.encoder_counts.is_some())
+        && a.method != "split"
     {
-        bail!("--known-density, --fit-gauge-position and --torque-offset apply to --method split");
+        bail!("--known-density, --fit-gauge-position, --torque-offset and --encoder-counts apply to --method split");
     }
     if let Some(path) = &a.plot {
         beam_tools::io::plot::check_extension(path)?;
@@ -278,6 +287,7 @@ fn identify_joint(
         fit_gauge_position: a.fit_gauge_position,
         fit_offset: a.torque_offset,
         evals: a.evals,
+        encoder_step_rad: a.encoder_counts.map(|n| std::f64::consts::TAU / n as f64),
     };
     let (params, sensors, split) =
         match with_modes!(a.plant.modes, calibrate_split(exps, guess, &options)) {
@@ -467,10 +477,14 @@ fn print_split(s: &SplitReport) {
             None => "none (the angle is not on a grid)".into(),
         })
         .collect();
-    println!(
-        "  split, encoder step in each log's angle: {}",
-        steps.join(", ")
-    );
+    if s.encoder_step_given {
+        println!("  split, encoder step (given): {}", steps[0]);
+    } else {
+        println!(
+            "  split, encoder step in each log's angle: {}",
+            steps.join(", ")
+        );
+    }
     println!(
         "  split, torque balance over {} moving samples: RMS error {:.2e} of {:.2e} N m; {}; {}",
         s.balance_samples,
