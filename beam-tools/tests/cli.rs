@@ -1386,3 +1386,74 @@ fn calibrate_takes_the_encoders_counts_when_given() {
     assert!(String::from_utf8_lossy(&paper.stderr).contains("apply to --method split"));
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn calibrate_finds_a_gauges_lag_and_takes_it_out_by_default() {
+    // A PD move logged with the strain 40 ms late (40 rows at 1 kHz), as a gauge amplifier's
+    // filter or a strain clock behind the encoder's would log it.
+    let dir = scratch("strain-lag");
+    let (log, late) = (dir.join("log.csv"), dir.join("late.csv"));
+    let out = beam(&[
+        "simulate",
+        "--controller",
+        "pd",
+        "--move",
+        "60",
+        "--from",
+        "0",
+        "--time",
+        "0.5",
+        "--csv",
+        log.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let text = std::fs::read_to_string(&log).unwrap();
+    let rows: Vec<Vec<&str>> = text.lines().map(|l| l.split(',').collect()).collect();
+    let strain_cols: Vec<usize> = rows[0]
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| **c == "root_strain" || **c == "mid_strain")
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(strain_cols.len(), 2);
+    let lagged: Vec<String> = (0..rows.len())
+        .map(|k| {
+            let mut row = rows[k].clone();
+            if k > 0 {
+                for &c in &strain_cols {
+                    row[c] = rows[(k.saturating_sub(40)).max(1)][c];
+                }
+            }
+            row.join(",")
+        })
+        .collect();
+    std::fs::write(&late, lagged.join("\n") + "\n").unwrap();
+    let truth = json(&beam(&["model", "--json"]))["clamped_hz"][0]
+        .as_f64()
+        .unwrap();
+    let out = beam(&["calibrate", late.to_str().unwrap(), "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("lags") && err.contains("by 0.040 s"), "{err}");
+    let found = json(&out)["identified"]["clamped_hz"][0].as_f64().unwrap();
+    assert!(
+        (found / truth - 1.0).abs() < 0.01,
+        "{found} against {truth}"
+    );
+    // Taken as logged, the lag ruins the fit: the first mode 10 % or more off, or no
+    // rigid body at all.
+    let as_logged = beam(&[
+        "calibrate",
+        late.to_str().unwrap(),
+        "--strain-delay",
+        "0",
+        "--json",
+    ]);
+    if as_logged.status.success() {
+        let off = json(&as_logged)["identified"]["clamped_hz"][0]
+            .as_f64()
+            .unwrap();
+        assert!((off / truth - 1.0).abs() > 0.1, "{off} against {truth}");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}

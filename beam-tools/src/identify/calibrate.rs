@@ -385,6 +385,24 @@ impl Log {
         Ok(log)
     }
 
+    /// The log with its strains taken `delay_s` later (linearly between samples): what a
+    /// gauge and amplifier that lag the hub by `delay_s` would have read without the lag.
+    /// The last `delay_s` of the log, which has no strain to take, is dropped.
+    pub fn strain_advanced(&self, delay_s: f64) -> Log {
+        let dt = self.t[1] - self.t[0];
+        let shift = delay_s / dt;
+        let whole = shift.floor().max(0.0) as usize;
+        let frac = shift - whole as f64;
+        let n = self.t.len().saturating_sub(whole + 1);
+        let at = |v: &[f64], k: usize| v[k + whole] + frac * (v[k + whole + 1] - v[k + whole]);
+        let shifted = |v: &[f64]| (0..n).map(|k| at(v, k)).collect::<Vec<f64>>();
+        Log {
+            root_strain: shifted(&self.root_strain),
+            mid_strain: self.mid_strain.as_deref().map(shifted),
+            ..self.slice(0..n)
+        }
+    }
+
     /// The samples `range` (indices).
     fn slice(&self, range: std::ops::Range<usize>) -> Log {
         Log {

@@ -4,8 +4,9 @@ use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::identify::calibrate::{
     calibrate_many, find_windows, read_log_with, split_moves, AtBound, CalibrateError, Columns,
-    Experiment, LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS, REST_BEFORE_S,
+    Experiment, Log, LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS, REST_BEFORE_S,
 };
+use beam_tools::identify::replay::strain_delay;
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
 use beam_tools::io::params_file::Sensors;
 use clap::Args;
@@ -50,6 +51,11 @@ pub struct CalibrateArgs {
     /// cannot tell the two apart (docs/calibrate-your-rig.md).
     #[arg(long, value_name = "KG_M3")]
     known_density: Option<f64>,
+    /// The gauge's delay behind the hub, s: the log's strains are taken this much later
+    /// (0: as logged) [default: found in each log by correlating its root strain with the
+    /// starting parameters' on the logged hub, within 0.1 s, and applied from 3 ms].
+    #[arg(long, value_name = "S", value_parser = strain_delay_value)]
+    strain_delay: Option<f64>,
     /// With `--method split`: the encoder's counts per turn (after quadrature decoding), when
     /// the log's angle is printed more coarsely than the encoder counts or not on its grid
     /// [default: its step is found in each log's angle].
@@ -94,8 +100,25 @@ pub struct CalibrateArgs {
 pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     check(a)?;
     let guess = *crate::beam(&a.plant)?.params();
-    let (exps, names, notes) = experiments(a)?;
-    let mut found = identify(a, &exps, &guess)?;
+    let mut read = experiments(a, &guess)?;
+    let mut found = identify(a, &read.exps, &guess)?;
+    // A delay found on the starting model is off by what its frequencies are: found again
+    // on the result, and if it moved by more than a sample, calibrated again with it.
+    if a.strain_delay.is_none() {
+        let again = experiments(a, &found.params)?;
+        let moved = read
+            .delays
+            .iter()
+            .zip(&again.delays)
+            .any(|((d, dt), (e, _))| (d - e).abs() > 1.5 * dt);
+        if moved {
+            read = again;
+            found = identify(a, &read.exps, &guess)?;
+        }
+    }
+    let Read {
+        exps, names, notes, ..
+    } = read;
     found.notes = notes;
     write_files(a, &found, &exps, &names)?;
     let (fm, gm) = with_modes!(a.plant.modes, summary(&found.params, &guess))?;
@@ -178,11 +201,23 @@ fn tip_masses(a: &CalibrateArgs) -> anyhow::Result<Vec<Option<f64>>> {
 }
 
 /// The moves to calibrate on, each with its name, windows and tip mass, and what reading
-/// them found: each log read, cut to --from/--to, an all-zero mid-span column dropped, and
+/// them found: each log read, cut to --from/--to, an all-zero mid-span column dropped, its
+/// strains taken back by the gauge's delay (given, or found against `model`'s strain), and
 /// cut into moves if it holds several.
-fn experiments(a: &CalibrateArgs) -> anyhow::Result<(Vec<Experiment>, Vec<String>, Vec<String>)> {
+/// What [`experiments`] read.
+struct Read {
+    exps: Vec<Experiment>,
+    /// Each move's name.
+    names: Vec<String>,
+    /// What reading found, for the warnings.
+    notes: Vec<String>,
+    /// Each log's strain delay taken out, s, and its sample period.
+    delays: Vec<(f64, f64)>,
+}
+
+fn experiments(a: &CalibrateArgs, model: &BeamParams) -> anyhow::Result<Read> {
     let columns = a.columns.clone().unwrap_or_default();
-    let (mut exps, mut names, mut notes) = (vec![], vec![], vec![]);
+    let (mut exps, mut names, mut notes, mut delays) = (vec![], vec![], vec![], vec![]);
     for (path, tip_mass_kg) in a.logs.iter().zip(tip_masses(a)?) {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).with_context(|| file.clone())?;
@@ -196,6 +231,17 @@ fn experiments(a: &CalibrateArgs) -> anyhow::Result<(Vec<Experiment>, Vec<String
             notes.push(format!(
                 "{file}: the mid-span strain reads zero throughout; taken as not measured"
             ));
+        }
+        // On the beam the log was made with: its own tip mass, if it has one.
+        let beam = BeamParams {
+            tip_mass_kg: tip_mass_kg.unwrap_or(model.tip_mass_kg),
+            ..*model
+        };
+        let (delay, note) = strain_delay_of(a, &beam, &log, &file);
+        notes.extend(note);
+        delays.push((delay, log.t[1] - log.t[0]));
+        if delay > 0.0 {
+            log = log.strain_advanced(delay);
         }
         let cuts = split_moves(&log);
         if cuts.len() > 1 && a.windows.is_some() {
@@ -233,7 +279,46 @@ fn experiments(a: &CalibrateArgs) -> anyhow::Result<(Vec<Experiment>, Vec<String
             names.push(name);
         }
     }
-    Ok((exps, names, notes))
+    Ok(Read {
+        exps,
+        names,
+        notes,
+        delays,
+    })
+}
+
+/// Below this a strain delay found in a log is taken as none: model error and noise move
+/// the correlation's peak by about a sample on logs with no lag, s.
+const STRAIN_DELAY_FLOOR_S: f64 = 0.003;
+
+/// The delay to take the log's strains back by, s, and what to say of it: `--strain-delay`
+/// if given, else found by [`strain_delay`] on `guess` (a delay within
+/// [`STRAIN_DELAY_FLOOR_S`] or a strain that leads is not applied).
+fn strain_delay_of(
+    a: &CalibrateArgs,
+    guess: &BeamParams,
+    log: &Log,
+    file: &str,
+) -> (f64, Option<String>) {
+    if let Some(d) = a.strain_delay {
+        return (d, None);
+    }
+    let Some(found) = with_modes!(a.plant.modes, strain_delay(guess, log)) else {
+        return (0.0, None);
+    };
+    let dt = log.t[1] - log.t[0];
+    if found.abs() < STRAIN_DELAY_FLOOR_S.max(1.5 * dt) {
+        return (0.0, None);
+    }
+    if found < 0.0 {
+        return (0.0, Some(format!(
+            "{file}: the root strain leads the model's (on the logged hub) by {:.3} s, which a gauge cannot; not applied (check that the strain and angle columns share a clock, or give --strain-delay)",
+            -found
+        )));
+    }
+    (found, Some(format!(
+        "{file}: the root strain lags the model's (on the logged hub) by {found:.3} s (a gauge amplifier's filter, or a sample clock behind the encoder's); its strains are taken {found:.3} s later (give --strain-delay 0 to keep them as logged)"
+    )))
 }
 
 /// The calibration by the chosen method; with several logs, each log alone as well, so that
@@ -797,4 +882,14 @@ fn traces_n<const N: usize>(
 ) -> anyhow::Result<beam_tools::identify::replay::Traces> {
     beam_tools::identify::replay::traces::<N>(p, sensors, log)
         .context("the model broke down on a log")
+}
+
+/// `--strain-delay S`: 0 to 0.5 s.
+fn strain_delay_value(s: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|e| format!("`{s}`: {e}"))?;
+    if (0.0..=0.5).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v} s is outside 0 to 0.5 s"))
+    }
 }
