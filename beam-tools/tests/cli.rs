@@ -1457,3 +1457,19 @@ fn calibrate_finds_a_gauges_lag_and_takes_it_out_by_default() {
     }
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn a_reader_that_closes_the_pipe_early_ends_the_run_quietly() {
+    // `beam simulate | head -1`: the reader is gone before the summary is printed.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_beam"))
+        .args(["simulate", "--duration", "3"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(141), "{err}");
+}

@@ -541,7 +541,31 @@ fn run_json(
     Ok(o)
 }
 
+/// Exit status when the reader of standard output went away (`beam ... | head`): what a
+/// process killed by SIGPIPE reports to a shell (128 + 13).
+const BROKEN_PIPE_EXIT: i32 = 141;
+
+/// A reader that closed standard output early ends the run quietly: Rust ignores SIGPIPE,
+/// so `println!` panics on the closed pipe, and this hook turns that one panic into the exit
+/// a pipe's writer is expected to make. Every other panic reports as before.
+fn quiet_on_a_closed_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(BROKEN_PIPE_EXIT);
+        }
+        default(info)
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_on_a_closed_pipe();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {
