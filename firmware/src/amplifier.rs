@@ -233,8 +233,16 @@ mod tests {
         assert_eq!(d(10.0 / 4200.0 * 0.5).duty, 1);
     }
 
-    #[test]
-    fn new_starts_disabled_and_torque_sets_direction_duty_then_enable() {
+    /// Starts disabled, then each torque sets direction, duty and enable in that order, and
+    /// a fault disables: the pin's level is the torque's sign, the other way when `REVERSED`.
+    fn direction_duty_then_enable<const REVERSED: bool>() {
+        let level = |positive: bool| {
+            if positive != REVERSED {
+                State::High
+            } else {
+                State::Low
+            }
+        };
         let mut pwm = PwmMock::new(&[
             Pwm::set_duty_cycle(0),
             Pwm::max_duty_cycle(4200),
@@ -243,14 +251,14 @@ mod tests {
             Pwm::set_duty_cycle(4200),
             Pwm::set_duty_cycle(0),
         ]);
-        let mut dir = PinMock::new(&[Pin::set(State::Low), Pin::set(State::High)]);
+        let mut dir = PinMock::new(&[Pin::set(level(false)), Pin::set(level(true))]);
         let mut en = PinMock::new(&[
             Pin::set(State::Low),
             Pin::set(State::High),
             Pin::set(State::High),
             Pin::set(State::Low),
         ]);
-        let mut amp = Amplifier::<_, _, _, _, false>::new(
+        let mut amp = Amplifier::<_, _, _, _, REVERSED>::new(
             pwm.clone(),
             dir.clone(),
             en.clone(),
@@ -271,33 +279,13 @@ mod tests {
     }
 
     #[test]
+    fn new_starts_disabled_and_torque_sets_direction_duty_then_enable() {
+        direction_duty_then_enable::<false>();
+    }
+
+    #[test]
     fn a_reversed_amplifier_sets_the_direction_pin_the_other_way() {
-        let mut pwm = PwmMock::new(&[
-            Pwm::set_duty_cycle(0),
-            Pwm::max_duty_cycle(4200),
-            Pwm::set_duty_cycle(1260),
-            Pwm::max_duty_cycle(4200),
-            Pwm::set_duty_cycle(1260),
-        ]);
-        let mut dir = PinMock::new(&[Pin::set(State::High), Pin::set(State::Low)]);
-        let mut en = PinMock::new(&[
-            Pin::set(State::Low),
-            Pin::set(State::High),
-            Pin::set(State::High),
-        ]);
-        let mut amp = Amplifier::<_, _, _, _, true>::new(
-            pwm.clone(),
-            dir.clone(),
-            en.clone(),
-            released(),
-            SCALE,
-        )
-        .unwrap();
-        amp.apply(&command(Mode::Slewing, -3.0)).unwrap();
-        amp.apply(&command(Mode::Slewing, 3.0)).unwrap();
-        pwm.done();
-        dir.done();
-        en.done();
+        direction_duty_then_enable::<true>();
     }
 
     #[test]
