@@ -13,7 +13,7 @@ use model_core::planner::MAX_WAYPOINTS;
 use model_core::spline::paper_slew;
 use model_core::{plan_through, Limits, Shaper, Timing, Waypoint};
 use model_core::{
-    ControlLaw, Controller, ControllerSettings, Law, LawGains, LawKind, LqgGains, ModalModel, Mode,
+    ControlLaw, Controller, ControllerSettings, Law, LawGains, LqgGains, ModalModel, Mode,
     RawMeasurement, SmcGains, SmcIGains, Spline, StrainSmcGains, TorqueCommand,
 };
 
@@ -33,13 +33,6 @@ pub const HAND_PICKED_SMC_I: SmcIGains = SmcIGains::START;
 
 /// The LQG law's starting weights, those of the shipped rows (`LqgGains::START`).
 pub const HAND_PICKED_LQG: LqgGains = LqgGains::START;
-
-/// The law of `kind` with the gains used when neither the command line nor the gain table
-/// gives them: each law's [`LawGains::START`] (PD's baseline, Kp 20 and Kd 1, also under
-/// the feedforward of pd-ff, and the hand-picked SMC gains).
-pub const fn hand_picked(kind: LawKind) -> Law {
-    Law::start(kind)
-}
 
 /// Knot capacity of the moves the host runs.
 pub const MOVE_CAPACITY: usize = model_core::planner::SHAPED_PLAN_KNOTS;

@@ -741,7 +741,7 @@ fn default_law(kind: LawKind, payload_kg: Option<f64>) -> Law {
         kind,
         payload_kg.unwrap_or(0.0) as f32,
     )
-    .unwrap_or(host_tests::sim::hand_picked(kind))
+    .unwrap_or(Law::start(kind))
 }
 
 fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {

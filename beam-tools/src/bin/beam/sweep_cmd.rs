@@ -75,8 +75,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     let tuned = |k: LawKind| {
         move |payload: f64| {
             let p = payload as f32;
-            let law =
-                model_core::gains::schedule(table, k, p).unwrap_or(host_tests::sim::hand_picked(k));
+            let law = model_core::gains::schedule(table, k, p).unwrap_or(model_core::Law::start(k));
             (law, model_core::gains::schedule_shaper(table, k, p))
         }
     };
