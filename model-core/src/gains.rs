@@ -133,11 +133,11 @@ pub fn schedule_shaper(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Sha
 }
 
 /// The gains between two rows of one law, each by the same linear mix; the settings are
-/// the lower row's (the table's build makes a law's rows agree on them).
+/// the lower row's (the table's build makes a law's rows agree on them). Past the law's
+/// gains both rows hold zero, and so does the mix.
 fn lerp(lo: &Law, hi: &Law, f: f32) -> Law {
     let (a, b) = (lo.values(), hi.values());
-    let mixed = core::array::from_fn(|i| a[i] + (b[i] - a[i]) * f);
-    Law::from_values(lo.kind(), mixed, lo.settings())
+    lo.with_values(core::array::from_fn(|i| a[i] + (b[i] - a[i]) * f))
 }
 
 #[cfg(test)]

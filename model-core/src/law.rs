@@ -286,6 +286,12 @@ impl Law {
         self.settings
     }
 
+    /// This law with its settings and other gain values, in the specs' order (zero past
+    /// them): for a mix of two of its rows, which needs no dispatch on the law.
+    pub(crate) const fn with_values(&self, values: [f32; MAX_GAINS]) -> Law {
+        Law { values, ..*self }
+    }
+
     /// The gains as law `G`'s gain type, if this is that law.
     pub fn gains<G: LawGains>(&self) -> Option<G> {
         (self.kind == G::KIND).then(|| G::from_law(self))
