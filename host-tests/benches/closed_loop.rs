@@ -45,15 +45,16 @@ fn step_of(c: &mut Criterion, name: &str, law: Law) {
     let mut ctl = Controller::try_build(settings, law, paper_slew().unwrap()).unwrap();
     ctl.step(&RawMeasurement::default());
     ctl.start_move().unwrap();
-    // The hub creeps one encoder count a tick: the law runs in full every tick (slewing,
-    // then holding) and nothing faults. A hub held still under torque would latch the stall
-    // fault after 20 ticks, and the torque-off path is not what is measured here.
-    let mut count = 0u32;
+    // The hub walks one encoder count a tick, 200 counts (4.4 deg) forward and back: the law
+    // runs in full every tick (slewing, then holding) and nothing faults. A hub held still
+    // under torque would latch the stall fault after 20 ticks, and one that crept on would
+    // leave the drive's range; the torque-off path is not what is measured here.
+    let mut tick = 0u32;
     c.bench_function(name, |b| {
         b.iter(|| {
-            count = count.wrapping_add(1);
+            tick = (tick + 1) % 400;
             let raw = RawMeasurement {
-                encoder_raw: count & 0xffff,
+                encoder_raw: tick.min(400 - tick),
                 strain_root_code: 100,
                 amp_fault: false,
                 driver_fault: false,
