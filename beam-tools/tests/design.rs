@@ -26,6 +26,7 @@ fn spec(m: &ModalModel<3>, seed: u64) -> Spec {
         hold: Some((1.0, 0.5)),
         torque_fraction: 0.99,
         samples: 48,
+        search: beam_tools::design::optimize::Search::Sampled,
         starts: 1,
         local_evals: 40,
         seed,
@@ -187,6 +188,7 @@ fn the_settle_objective_scores_the_settle_time_and_does_not_lose_its_start() {
         max_err_deg_0_6: None,
         hold: None,
         samples: 8,
+        search: beam_tools::design::optimize::Search::Sampled,
         local_evals: 12,
         warm_start: Some(x0.to_vec()),
         ..spec(&m, 3)

@@ -1,7 +1,8 @@
 //! Gain design by constrained optimisation of the paper's cost J (docs/design.md, section 5).
 //!
 //! Two stages, both deterministic for a seed: a Latin-hypercube sample of the gain bounds,
-//! evaluated in parallel (rayon keeps the results in sample order), then COBYLA (the `cobyla`
+//! evaluated in parallel (rayon keeps the results in sample order) and, with
+//! [`Search::Evolution`], evolved from there by differential evolution, then COBYLA (the `cobyla`
 //! crate, a pure-Rust translation of NLopt's; chosen because it takes inequality constraints
 //! without gradients, and the closed loop is not differentiable: counts are quantised and the
 //! switching function may be `sign`) from the best few samples. Gains are searched in a unit
@@ -208,8 +209,11 @@ pub struct Spec {
     pub quantile: f64,
     /// Constraint: peak commanded torque at most this fraction of the drive limit.
     pub torque_fraction: f64,
-    /// Latin-hypercube samples of the global stage.
+    /// Latin-hypercube samples of the global stage (with [`Search::Evolution`], the
+    /// population).
     pub samples: usize,
+    /// The global stage: the sample alone, or differential evolution from it.
+    pub search: Search,
     /// Local COBYLA runs, from the best samples.
     pub starts: usize,
     /// Objective evaluations per local run.
@@ -234,6 +238,30 @@ pub enum Objective {
     /// run that has not settled by its end scores twice its length. Constraint: the torque's
     /// RMS over the run's last 0.5 s at most [`QUIET_TORQUE_RMS_NM`].
     Settle(SettleSpec),
+}
+
+/// The global stage of the search.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Search {
+    /// The Latin-hypercube sample, whose best points start the local runs: cheap, but what it
+    /// finds depends on where the sample happened to land.
+    Sampled,
+    /// Differential evolution ([`differential_evolution`]) for this many generations, its
+    /// first population the Latin-hypercube sample; the local runs start from its best.
+    Evolution {
+        /// Generations after the first population.
+        generations: usize,
+    },
+}
+
+impl Search {
+    /// Closed-loop evaluations of the global stage with a population of `samples`.
+    pub fn evaluations(&self, samples: usize) -> usize {
+        match *self {
+            Search::Sampled => samples,
+            Search::Evolution { generations } => samples * (generations + 1),
+        }
+    }
 }
 
 /// How long a settle-time evaluation simulates, s.
@@ -514,6 +542,88 @@ fn score<const N: usize>(
     })
 }
 
+/// Differential evolution (Storn and Price's DE/rand/1/bin) in the unit cube, from the
+/// population `init`, for `generations` generations; returns the last population with each
+/// member's evaluation.
+///
+/// Each generation, every member `x_i` meets a trial: three other members `a, b, c` drawn at
+/// random give the mutant `a + F (b - c)`, with F drawn once a generation from 0.5-1
+/// (dither), crossed with `x_i` coordinate by coordinate at rate 0.9 (one coordinate always
+/// from the mutant); a coordinate the mutant takes outside 0-1 is drawn between `a`'s and that
+/// bound. The trial replaces `x_i` when it ranks no worse by `rank` (lower is better; the
+/// optimiser's rank puts every feasible point before every infeasible one, then orders by
+/// cost or by violation: Deb's rules for constraints). Trials are drawn from one seeded
+/// generator before they are evaluated, in parallel, so the result depends on the seed alone.
+/// A population of fewer than four is returned evaluated but not evolved.
+///
+/// Written here rather than taken from a crate: the one permissively licensed DE crate is
+/// unmaintained (2016), evaluates serially and takes neither constraints nor a seed.
+pub fn differential_evolution<E: Send>(
+    init: Vec<Vec<f64>>,
+    generations: usize,
+    seed: u64,
+    eval: &(dyn Fn(&[f64]) -> E + Sync),
+    rank: &dyn Fn(&E) -> (bool, f64),
+) -> Vec<(Vec<f64>, E)> {
+    const CROSSOVER: f64 = 0.9;
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut pop: Vec<(Vec<f64>, E)> = init
+        .into_par_iter()
+        .map(|u| {
+            let e = eval(&u);
+            (u, e)
+        })
+        .collect();
+    let n = pop.len();
+    if n < 4 {
+        return pop;
+    }
+    for _ in 0..generations {
+        let f = 0.5 + 0.5 * rng.gen::<f64>();
+        let trials: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let mut pick = |avoid: &[usize]| loop {
+                    let k = rng.gen_range(0..n);
+                    if !avoid.contains(&k) {
+                        break k;
+                    }
+                };
+                let a = pick(&[i]);
+                let b = pick(&[i, a]);
+                let c = pick(&[i, a, b]);
+                let x = &pop[i].0;
+                let forced = rng.gen_range(0..x.len().max(1));
+                (0..x.len())
+                    .map(|j| {
+                        if j != forced && rng.gen::<f64>() >= CROSSOVER {
+                            return x[j];
+                        }
+                        let base = pop[a].0[j];
+                        let v = base + f * (pop[b].0[j] - pop[c].0[j]);
+                        if v < 0.0 {
+                            base * rng.gen::<f64>()
+                        } else if v > 1.0 {
+                            base + (1.0 - base) * rng.gen::<f64>()
+                        } else {
+                            v
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let evaluated: Vec<E> = trials.par_iter().map(|u| eval(u)).collect();
+        for (member, (u, e)) in pop.iter_mut().zip(trials.into_iter().zip(evaluated)) {
+            if matches!(
+                rank(&e).partial_cmp(&rank(&member.1)),
+                Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+            ) {
+                *member = (u, e);
+            }
+        }
+    }
+    pop
+}
+
 /// `samples` points of a Latin hypercube in the unit cube of `dims` dimensions: one point in
 /// each of `samples` equal strata of every coordinate, strata paired at random (seeded).
 pub fn latin_hypercube(samples: usize, dims: usize, seed: u64) -> Vec<Vec<f64>> {
@@ -543,11 +653,11 @@ pub fn optimize<const N: usize>(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Outcome {
     let d = spec.params.len();
-    let total = spec.samples + spec.starts * spec.local_evals;
+    let total = spec.search.evaluations(spec.samples) + spec.starts * spec.local_evals;
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
 
-    // Stage 1: Latin hypercube.
+    // Stage 1: Latin hypercube, evolved when asked.
     let units = latin_hypercube(spec.samples, d, spec.seed);
     let to_gains = |u: &[f64]| {
         spec.params
@@ -556,14 +666,24 @@ pub fn optimize<const N: usize>(
             .map(|(p, &u)| p.gain_at(u))
             .collect::<Vec<f64>>()
     };
-    let mut sampled: Vec<(Vec<f64>, Evaluation)> = units
-        .par_iter()
-        .map(|u| {
-            let e = evaluate(model, spec, &to_gains(u));
-            tick();
-            (u.clone(), e)
-        })
-        .collect();
+    let eval_unit = |u: &[f64]| {
+        let e = evaluate(model, spec, &to_gains(u));
+        tick();
+        e
+    };
+    let mut sampled: Vec<(Vec<f64>, Evaluation)> = match spec.search {
+        Search::Sampled => units
+            .par_iter()
+            .map(|u| (u.clone(), eval_unit(u)))
+            .collect(),
+        Search::Evolution { generations } => differential_evolution(
+            units,
+            generations,
+            spec.seed ^ 0xDE,
+            &eval_unit,
+            &Evaluation::rank,
+        ),
+    };
     sampled.sort_by(|a, b| {
         a.1.rank()
             .partial_cmp(&b.1.rank())
@@ -690,3 +810,77 @@ pub fn full_metrics<const N: usize>(
 
 /// How long [`full_metrics`] simulates, s: settle times of a few seconds show.
 pub const FULL_RUN_S: f64 = 4.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rastrigin's function on the unit cube, its global minimum (0) moved off the centre to
+    /// `u = 3 / 10.24` in every coordinate; every other local minimum is at least 1.
+    fn rastrigin(u: &[f64]) -> f64 {
+        u.iter()
+            .map(|&u| {
+                let z = 10.24 * u - 3.0;
+                z * z - 10.0 * (2.0 * std::f64::consts::PI * z).cos() + 10.0
+            })
+            .sum()
+    }
+
+    fn best(pop: &[(Vec<f64>, (bool, f64))]) -> &(Vec<f64>, (bool, f64)) {
+        pop.iter()
+            .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap())
+            .unwrap()
+    }
+
+    #[test]
+    fn evolution_finds_rastrigins_global_minimum_for_every_seed() {
+        // 4 dimensions hold 11^4 local minima in the cube; a 40-point sample lands in the
+        // global one's basin by luck alone.
+        for seed in 0..4 {
+            let init = latin_hypercube(40, 4, seed);
+            let eval = |u: &[f64]| (false, rastrigin(u));
+            let rank = |e: &(bool, f64)| *e;
+            let sampled = best(
+                &init
+                    .iter()
+                    .map(|u| (u.clone(), eval(u)))
+                    .collect::<Vec<_>>(),
+            )
+            .1
+             .1;
+            let pop = differential_evolution(init, 300, seed, &eval, &rank);
+            let (u, (_, f)) = best(&pop);
+            assert!(
+                *f < 0.5,
+                "seed {seed}: {f} at {u:?} (sample's best {sampled})"
+            );
+            for x in u {
+                assert!((x - 3.0 / 10.24).abs() < 0.01, "seed {seed}: {u:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn evolution_keeps_to_the_constraints_and_repeats_for_a_seed() {
+        // Minimise x0 subject to x0 + x1 >= 1.2: the optimum is x0 = 0.2, x1 = 1, on the
+        // constraint's edge; infeasible points rank by their violation.
+        let eval = |u: &[f64]| {
+            let violation = 1.2 - u[0] - u[1];
+            if violation > 0.0 {
+                (true, violation)
+            } else {
+                (false, u[0])
+            }
+        };
+        let rank = |e: &(bool, f64)| *e;
+        let run = || differential_evolution(latin_hypercube(20, 2, 7), 150, 7, &eval, &rank);
+        let pop = run();
+        let (u, (infeasible, f)) = best(&pop);
+        assert!(!infeasible, "{u:?}");
+        assert!((f - 0.2).abs() < 0.01 && u[1] > 0.99, "{u:?}");
+        for (u, _) in &pop {
+            assert!(u.iter().all(|x| (0.0..=1.0).contains(x)), "{u:?}");
+        }
+        assert_eq!(pop, run());
+    }
+}

@@ -4,8 +4,8 @@
 use crate::{beam, named, PlantArgs};
 use anyhow::{anyhow, bail, Context};
 use beam_tools::design::optimize::{
-    default_params, full_metrics, optimize, LoadHold, Objective, Outcome, Param, Scenario, Spec,
-    SHAPER_DAMPING, SHAPER_HZ,
+    default_params, full_metrics, optimize, LoadHold, Objective, Outcome, Param, Scenario, Search,
+    Spec, SHAPER_DAMPING, SHAPER_HZ,
 };
 use clap::{Args, ValueEnum};
 use gain_table::Gains;
@@ -21,6 +21,15 @@ pub enum ObjectiveArg {
     Cost,
     /// The settle time from the move command.
     Settle,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+pub enum SearchArg {
+    /// The Latin-hypercube sample; the local runs start from its best points.
+    Sampled,
+    /// Differential evolution from the sample (population --samples, --generations), then
+    /// the local runs from its best: finds the same region whatever the seed.
+    Evolution,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -121,9 +130,15 @@ pub struct OptimizeArgs {
     /// a design of another law mapped into this one's gains).
     #[arg(long, value_name = "NAME=V,...")]
     start: Option<String>,
-    /// Latin-hypercube samples of the global stage.
+    /// The global stage of the search.
+    #[arg(long, value_enum, default_value_t = SearchArg::Sampled)]
+    search: SearchArg,
+    /// Latin-hypercube samples of the global stage (with --search evolution, the population).
     #[arg(long, default_value_t = 256)]
     samples: usize,
+    /// --search evolution: generations after the first population.
+    #[arg(long, default_value_t = 20)]
+    generations: usize,
     /// Local COBYLA runs from the best samples.
     #[arg(long, default_value_t = 2)]
     starts: usize,
@@ -182,6 +197,11 @@ pub fn run(a: &OptimizeArgs) -> anyhow::Result<()> {
     }
     if a.samples == 0 || a.samples > 100_000 || a.starts > 64 || a.local_evals > 100_000 {
         bail!("--samples must be 1..=100000, --starts at most 64, --local-evals at most 100000");
+    }
+    if a.search == SearchArg::Evolution && (a.samples < 4 || a.generations > 10_000) {
+        bail!(
+            "--search evolution needs --samples of at least 4 (the population) and at most 10000 --generations"
+        );
     }
     with_modes!(a.plant.modes, run_n(&beam, a))
 }
@@ -269,6 +289,12 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         }),
         torque_fraction: a.torque_fraction,
         samples: a.samples,
+        search: match a.search {
+            SearchArg::Sampled => Search::Sampled,
+            SearchArg::Evolution => Search::Evolution {
+                generations: a.generations,
+            },
+        },
         starts: a.starts,
         local_evals: a.local_evals,
         seed: a.seed,
@@ -289,7 +315,7 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
     let bar = if a.json {
         indicatif::ProgressBar::hidden()
     } else {
-        let total = (spec.samples + spec.starts * spec.local_evals) as u64;
+        let total = (spec.search.evaluations(spec.samples) + spec.starts * spec.local_evals) as u64;
         let bar = indicatif::ProgressBar::new(total);
         bar.set_style(
             indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ({elapsed})")
@@ -542,6 +568,11 @@ fn report(
                 Objective::Settle(_) => b.angle_term + b.strain_term,
             },
             "angle_term": b.angle_term, "strain_term": b.strain_term,
+            "search": match spec.search {
+                Search::Sampled => "sampled",
+                Search::Evolution { .. } => "evolution",
+            },
+            "seed": a.seed,
             "evaluations": o.evaluations, "seconds": seconds,
             "metrics": win, "pd_baseline_metrics": base,
         });
