@@ -101,6 +101,10 @@ named_enum! {
         /// flexible modes (encoder, root strain and torque in), with rigid-body feedforward:
         /// the torque sees the modes, so the loop damps the beam.
         Lqg = "lqg", "LQR + integral on a Kalman modal observer, with feedforward";
+        /// The paper's sliding mode carried to the full state: the surface is the LQR's
+        /// combination of the observed hub and flexible modes, on the LQG law's observer and
+        /// feedforward, with the switching term along it.
+        SmcModal = "smc-modal", "SMC on the observed hub and modes (full-state surface)";
     }
 }
 
@@ -376,6 +380,13 @@ law_gains! {
         ("kq", "(N m)^2/J", NonNegative, Search::Log(1.0, 1e7)),
         ("sigma", "N m", Positive, Search::Log(0.01, 10.0))
     ];
+    [SmcModal] (Switching) => [
+        ("kp", "N m/rad", Positive, Search::Log(1.0, 2000.0)),
+        ("kq", "(N m)^2/J", NonNegative, Search::Log(1.0, 1e7)),
+        ("sigma", "N m", Positive, Search::Log(0.01, 10.0)),
+        ("a", "rad/s^2", NonNegative, Search::Log(1.0, 5000.0)),
+        ("beta", "s/rad", Positive, Search::Log(0.003, 5.0))
+    ];
 }
 
 /// Most gains a law has: model-core's fixed gain arrays are this long.
@@ -544,7 +555,7 @@ mod tests {
         core::fmt::write(&mut w, format_args!("{e}")).unwrap();
         assert_eq!(
             core::str::from_utf8(&w.0[..w.1]).unwrap(),
-            "unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i, lqg"
+            "unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i, lqg, smc-modal"
         );
         assert!(
             "Smc".parse::<LawKind>().is_err(),

@@ -14,7 +14,7 @@ import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 BEAM = ROOT / "target" / "host" / "beam"
-LAWS = ["pd-ff", "smc", "smc-i", "smc-strain", "lqg"]
+LAWS = ["pd-ff", "smc", "smc-i", "smc-strain", "lqg", "smc-modal"]
 MOVES = [15, 45, 90, 180]
 DURATION_S = 4.0
 

@@ -747,7 +747,7 @@ cost_j = 2.0
         assert_eq!((e.row, e.field), (Some(1), Some("controller")));
         assert_eq!(
             e.message,
-            "`lqr`: unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i, lqg"
+            "`lqr`: unknown control law; expected one of pd, smc, smc-strain, pd-ff, smc-i, lqg, smc-modal"
         );
         assert_eq!(bad("modes = 3", "modes = 7").field, Some("modes"));
         let e = bad("preset = \"aluminium\"", "preset = \"steel\"");
@@ -835,6 +835,7 @@ cost_j = 2.0
             LawKind::PdFf,
             LawKind::SmcI,
             LawKind::Lqg,
+            LawKind::SmcModal,
         ] {
             let row = rows.iter().find(|r| r.gains.kind() == kind).unwrap();
             let names: Vec<&str> = row.gains.numbers().iter().map(|n| n.0).collect();

@@ -30,6 +30,7 @@ mod pd;
 mod pd_ff;
 mod smc;
 mod smc_i;
+mod smc_modal;
 mod smc_strain;
 
 #[cfg(feature = "observer")]
@@ -39,6 +40,7 @@ pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
 pub use smc::SmcGains;
 pub use smc_i::SmcIGains;
+pub use smc_modal::{SmcModalGains, SMC_MODAL_KD};
 pub use smc_strain::StrainSmcGains;
 
 /// Defines a law's gain type: its gains as `f32` fields, named and ordered as the law's
@@ -267,6 +269,8 @@ laws! {
     SmcI(SmcIGains),
     /// LQR with integral action on a Kalman modal observer, with rigid-body feedforward.
     Lqg(LqgGains),
+    /// The sliding mode on the full observed state (the LQR's surface), on the LQG observer.
+    SmcModal(SmcModalGains),
 }
 
 impl Law {
@@ -336,13 +340,13 @@ pub struct Estimate {
 }
 
 /// What a law carries from one tick to the next: the integral of the hub error (smc-i, lqg)
-/// and the observer's state (lqg). Zero when a move starts.
+/// and the observer's state (lqg, smc-modal). Zero when a move starts.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LawState {
     /// Integral of `theta - theta_r` since the move started, rad s.
     pub integral: f32,
-    /// The LQG law's observer and reference beam.
+    /// The observer and reference beam of lqg and smc-modal.
     #[cfg(feature = "observer")]
     pub lqg: ObserverState,
 }

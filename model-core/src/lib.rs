@@ -88,7 +88,7 @@ pub use controller::{
 };
 pub use law::{
     ControlLaw, Law, LawGains, LawKind, LawState, LqgGains, PdFfGains, PdGains, Settings, SmcGains,
-    SmcIGains, StrainSmcGains, Switching,
+    SmcIGains, SmcModalGains, StrainSmcGains, Switching,
 };
 pub use measure::{AdcSpec, EncoderSpec};
 pub use modal::{ModalModel, ModelError};

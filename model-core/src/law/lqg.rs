@@ -165,15 +165,40 @@ impl LawGains for LqgGains {
     }
 }
 
-/// The LQG tick: the observer's predict (with the torque applied last tick) and update
-/// (with the hub angle and root strain), then the state feedback about the reference
-/// state (the hub on its reference, the beam bent as the reference's acceleration bends
-/// it), the integral, and the rigid-body feedforward. Fixed loops over the whole layout:
-/// no bound is read at run time.
+/// The LQG tick: [`observe`], then the integral. Fixed loops over the whole layout: no bound
+/// is read at run time.
 #[cfg(feature = "observer")]
 #[inline(always)]
 fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState, ts_s: f32) -> f32 {
-    const RATE: usize = 1 + MAX_MODES;
+    let (mut u, _) = observe(this, x, r, law);
+    law.integral = integrate(
+        law.integral,
+        law.lqg.estimate[0] - r.pos,
+        ts_s,
+        this.integral_max,
+    );
+    u -= this.observer.ki * law.integral;
+    applied(law, u, this.observer.torque_limit_nm)
+}
+
+/// Index of the hub rate in [`LqgDesign`]'s layout.
+#[cfg(feature = "observer")]
+pub(super) const RATE: usize = 1 + MAX_MODES;
+
+/// The observer's tick, shared by the laws on it: its predict (with the torque applied last
+/// tick) and update (with the hub angle and root strain), the reference beam's step, and
+/// the state feedback about the reference state (the hub on its reference, the beam bent as
+/// the reference's acceleration bends it). Returns `(ff - K (x - x_ref), K (x - x_ref))`: the
+/// rigid-body and reference-beam feedforward less the state feedback, and the feedback
+/// alone, N m.
+#[cfg(feature = "observer")]
+#[inline(always)]
+pub(super) fn observe(
+    this: &ControlLaw,
+    x: &Estimate,
+    r: &RefPoint,
+    law: &mut LawState,
+) -> (f32, f32) {
     let d = &this.observer;
     let state = &mut law.lqg;
     if !state.observing {
@@ -222,6 +247,7 @@ fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState,
     {
         u += fq * q + fdq * dq + w2 * fs * q;
     }
+    let mut sigma = 0.0f32;
     let mut next = [0.0f32; 2 * MAX_MODES];
     for (nz, (row, b)) in next.iter_mut().zip(d.ref_ad.iter().zip(&d.ref_bd)) {
         let mut acc = b * r.acc;
@@ -253,7 +279,9 @@ fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState,
         } else {
             state.reference[i - 1 - RATE + MAX_MODES]
         };
-        u -= d.k[i] * (*xi - reference);
+        let feedback = d.k[i] * (*xi - reference);
+        u -= feedback;
+        sigma += feedback;
     }
     // Once the reference is at rest the reference beam is too: whatever it would still
     // ring with (a shaper's residual, a mode it was not tuned for) is the feedback's to
@@ -264,15 +292,15 @@ fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState,
     } else {
         next
     };
-    law.integral = integrate(
-        law.integral,
-        state.estimate[0] - r.pos,
-        ts_s,
-        this.integral_max,
-    );
-    u -= d.ki * law.integral;
-    let limit = d.torque_limit_nm;
-    state.applied_nm = if u > limit {
+    (u, sigma)
+}
+
+/// Records `u` within the drive's `limit` as the torque the observer is told was applied
+/// next tick, and returns `u`.
+#[cfg(feature = "observer")]
+#[inline(always)]
+pub(super) fn applied(law: &mut LawState, u: f32, limit: f32) -> f32 {
+    law.lqg.applied_nm = if u > limit {
         limit
     } else if u < -limit {
         -limit
