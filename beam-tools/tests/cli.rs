@@ -1459,6 +1459,67 @@ fn calibrate_finds_a_gauges_lag_and_takes_it_out_by_default() {
 }
 
 #[test]
+fn calibrate_names_a_torque_it_cannot_place_in_either_direction() {
+    // Two PD moves, out and back, with the logged torque 50 mN m above what the drive
+    // applied: a torque sensor's zero off, or the same as Coulomb friction that differs by
+    // 100 mN m between the directions, while the hub moves. Without --torque-offset the
+    // balance cannot place it and says so, with about the offset. (On the same moves without
+    // the offset it finds -1.3e-4 +- 1.6e-4 N m and no fall in the residual, and warns not.)
+    let dir = scratch("unplaced-offset");
+    let mut logs = vec![];
+    for (name, from, to) in [("out", "-30", "30"), ("back", "30", "-30")] {
+        let path = dir.join(format!("{name}.csv"));
+        let out = beam(&[
+            "simulate",
+            "--controller",
+            "pd",
+            "--from",
+            from,
+            "--move",
+            to,
+            "--duration",
+            "1.5",
+            "--csv",
+            path.to_str().unwrap(),
+        ]);
+        assert!(out.status.success());
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        let col = header.split(',').position(|c| c == "torque_nm").unwrap();
+        let shifted: Vec<String> = lines
+            .map(|l| {
+                let mut f: Vec<String> = l.split(',').map(String::from).collect();
+                f[col] = (f[col].parse::<f64>().unwrap() + 0.05).to_string();
+                f.join(",")
+            })
+            .collect();
+        std::fs::write(&path, format!("{header}\n{}\n", shifted.join("\n"))).unwrap();
+        logs.push(path);
+    }
+    let paths: Vec<&str> = logs.iter().map(|p| p.to_str().unwrap()).collect();
+    let out = beam(&[&["calibrate"][..], &paths, &["--json"]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = json(&out);
+    let unplaced = &v["split"]["unplaced_offset"];
+    let offset = unplaced["offset_nm"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{v}"));
+    assert!((offset - 0.05).abs() < 0.005, "{unplaced}");
+    let warned = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w.as_str().unwrap().contains("cannot place"));
+    assert!(warned, "{}", v["warnings"]);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
 fn a_reader_that_closes_the_pipe_early_ends_the_run_quietly() {
     // `beam simulate | head -1`: the reader is gone before the summary is printed.
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_beam"))

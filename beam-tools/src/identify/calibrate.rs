@@ -151,8 +151,7 @@ pub enum CalibrateError {
     /// The torque balance came out unphysical: the logs do not determine the rigid body.
     #[error(
         "the torque balance gives Jm {jm:.3e} kg m^2, density {density:.4e} kg/m^3 and torque \
-         scale {torque_scale:.3} (each must be > 0): the logs do not determine the rigid body, \
-         or the starting parameters (tip mass, gauge) do not describe the rig"
+         scale {torque_scale:.3} (each must be > 0): {cause}"
     )]
     Unphysical {
         /// The hub's inertia found.
@@ -161,7 +160,41 @@ pub enum CalibrateError {
         density: f64,
         /// The torque scale found.
         torque_scale: f64,
+        /// What the balance saw that most likely caused it.
+        cause: UnphysicalCause,
     },
+}
+
+/// The likely cause of an unphysical torque balance, from what the balance saw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum UnphysicalCause {
+    /// Nothing the balance can test: the general advice.
+    Unknown,
+    /// The logs move both ways, and the same balance given a torque offset is physical.
+    Offset {
+        /// The offset it then finds, N m.
+        offset_nm: f64,
+        /// Jm it then finds, kg m^2.
+        jm: f64,
+    },
+}
+
+impl std::fmt::Display for UnphysicalCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            UnphysicalCause::Unknown => write!(
+                f,
+                "the logs do not determine the rigid body, or the starting parameters (tip \
+                 mass, gauge) do not describe the rig"
+            ),
+            UnphysicalCause::Offset { offset_nm, jm } => write!(
+                f,
+                "given a torque offset the same balance is physical ({offset_nm:.3e} N m, Jm \
+                 {jm:.3e} kg m^2): the torque's zero is off, or Coulomb friction differs \
+                 between the two directions (by twice that); calibrate with --torque-offset"
+            ),
+        }
+    }
 }
 
 /// A logged run: uniformly sampled time, applied torque, measured hub angle and root strain.

@@ -32,6 +32,7 @@
 use crate::design::optimize::Param;
 use crate::identify::calibrate::{
     minimise, replay, AtBound, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
+    UnphysicalCause,
 };
 use crate::identify::lsq::Normal;
 use crate::identify::replay::{
@@ -132,6 +133,9 @@ pub struct SplitReport {
     /// Parameters that ended on a bound: of step 1's search, or friction the balance found
     /// negative and that was set to zero.
     pub at_bound: Vec<AtBound>,
+    /// With no offset asked for, a torque the balance could not place in either direction
+    /// of motion, found by fitting an offset too (`None`: none, or not testable).
+    pub unplaced_offset: Option<UnplacedOffset>,
 }
 
 /// The prescribed hub's half-width is multiplied by these to see how much the results
@@ -297,11 +301,12 @@ pub fn calibrate_split<const N: usize>(
     };
     let balance = solve_balance::<N>(&inputs, &views.hubs, &beam.params, options)?;
     let d = balance.derived(&balance.coef, reference);
-    if !(d[0] > 0.0 && d[1] > 0.0 && d[4] > 0.0) {
+    if !physical(&d) {
         return Err(CalibrateError::Unphysical {
             jm: d[0],
             density: d[1],
             torque_scale: d[4],
+            cause: unphysical_cause(&balance, reference),
         });
     }
     // Friction cannot be negative: a balance that finds it so is held at zero, and said.
@@ -343,6 +348,7 @@ pub fn calibrate_split<const N: usize>(
     );
     let tradeoffs = tradeoffs(&spread, &beam);
     let check = check_figures::<N>(exps, &balance, &found, &sensors)?;
+    let unplaced_offset = unplaced_offset(exps, &balance, reference, check.balance_rms_err_nm);
     Ok((
         found,
         sensors,
@@ -362,8 +368,98 @@ pub fn calibrate_split<const N: usize>(
             encoder_step_rad: views.steps,
             encoder_step_given: options.encoder_step_rad.is_some(),
             at_bound,
+            unplaced_offset,
         },
     ))
+}
+
+/// Jm, the density and the torque scale of derived balance results are all positive.
+fn physical(d: &[f64; 6]) -> bool {
+    d[0] > 0.0 && d[1] > 0.0 && d[4] > 0.0
+}
+
+/// The rows' moves go both ways, each for at least [`BOTH_WAYS_FRACTION`] of them (the
+/// Coulomb column carries each interval's direction).
+fn moves_both_ways(rows: &[Row]) -> bool {
+    let up = rows.iter().filter(|r| r.x[3] > 0.0).count();
+    let down = rows.iter().filter(|r| r.x[3] < 0.0).count();
+    up.min(down) as f64 >= BOTH_WAYS_FRACTION * (up + down) as f64
+}
+
+/// Why `balance` (unphysical) most likely is: if it moves both ways without an offset and
+/// the same rows with one give a physical result, the offset.
+fn unphysical_cause(balance: &Balance, reference: Reference) -> UnphysicalCause {
+    if balance.offset_fitted || !moves_both_ways(&balance.rows) {
+        return UnphysicalCause::Unknown;
+    }
+    match fit_balance(&balance.rows, true).map(|c| balance.derived(&c, reference)) {
+        Ok(d) if physical(&d) => UnphysicalCause::Offset {
+            offset_nm: d[5],
+            jm: d[0],
+        },
+        _ => UnphysicalCause::Unknown,
+    }
+}
+
+/// How many of its standard errors an offset the balance was not asked for must be, and
+/// how much of the residual's RMS it must take away, to be reported ([`unplaced_offset`]).
+pub const UNPLACED_SIGMAS: f64 = 4.0;
+/// See [`UNPLACED_SIGMAS`]: the residual's RMS with the offset at most this fraction of it
+/// without.
+pub const UNPLACED_RMS_RATIO: f64 = 0.5;
+
+/// With no offset fitted and the logs moving both ways, the balance refitted with one;
+/// returned when the offset is more than [`UNPLACED_SIGMAS`] of its block-bootstrap error
+/// and the residual's RMS falls to [`UNPLACED_RMS_RATIO`] of `rms_without` or less: a torque
+/// the balance could not place in either direction, which a torque offset or Coulomb friction
+/// that differs between the directions leaves. (Off by default because a log swinging back
+/// and forth can show a small offset that is not there; the residual's fall tells the two
+/// apart: a true 50 mN m offset took it from 2.5e-3 to 2.6e-4 N m, the spurious ones leave
+/// it where it was.)
+fn unplaced_offset(
+    exps: &[Experiment],
+    balance: &Balance,
+    reference: Reference,
+    rms_without: f64,
+) -> Option<UnplacedOffset> {
+    if balance.offset_fitted || !moves_both_ways(&balance.rows) {
+        return None;
+    }
+    let coef = fit_balance(&balance.rows, true).ok()?;
+    let resid: Vec<f64> = balance
+        .rows
+        .iter()
+        .map(|r| r.y - r.x.iter().zip(&coef).map(|(x, c)| x * c).sum::<f64>())
+        .collect();
+    let rms_with = (resid.iter().map(|r| r * r).sum::<f64>() / resid.len().max(1) as f64).sqrt();
+    let dt0 = exps[0].log.t[1] - exps[0].log.t[0];
+    let block_s = (2.0 * decorrelation_lag(&resid) as f64 * dt0).max(MIN_BLOCK_S);
+    let boot: Vec<f64> = bootstrap(&balance.rows, exps, true, block_s)
+        .into_iter()
+        .map(|c| balance.derived(&c, reference)[5])
+        .collect();
+    let n = boot.len().max(1) as f64;
+    let mean = boot.iter().sum::<f64>() / n;
+    let std_err = (boot.iter().map(|b| (b - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let offset_nm = balance.derived(&coef, reference)[5];
+    (offset_nm.abs() > UNPLACED_SIGMAS * std_err && rms_with <= UNPLACED_RMS_RATIO * rms_without)
+        .then_some(UnplacedOffset {
+            offset_nm,
+            std_err_nm: std_err,
+            rms_err_with_nm: rms_with,
+        })
+}
+
+/// A torque the balance could not place in either direction of motion ([`unplaced_offset`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct UnplacedOffset {
+    /// The offset the balance finds when it is given one, N m.
+    pub offset_nm: f64,
+    /// Its one-sigma error (block bootstrap), N m.
+    pub std_err_nm: f64,
+    /// The balance's residual RMS with it, N m (without it: the report's
+    /// `balance_rms_err_nm`).
+    pub rms_err_with_nm: f64,
 }
 
 /// `guess` checked, with a known density put in (EI moved with it, at the ratio), and the
@@ -527,6 +623,7 @@ fn solve_balance<const N: usize>(
             jm: coef[0],
             density: p.density_kg_m3 * scale_now,
             torque_scale: 1.0,
+            cause: UnphysicalCause::Unknown,
         };
         if !(scale_now > 0.0) {
             return Err(unphysical);
@@ -1450,5 +1547,63 @@ fn correlation(samples: &[[f64; 6]], a: usize, b: usize) -> f64 {
         sab / (saa * sbb).sqrt()
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Balance rows made from a known rigid body and torque offset: intervals of 10 ms,
+    /// alternating direction (or all one way), each accelerating the hub (so an offset left
+    /// out is taken for inertia).
+    fn rows(offset_nm: f64, both_ways: bool) -> Vec<Row> {
+        let (jm, viscous, coulomb, t) = (0.007, 1e-4, 0.01, 0.01);
+        (0..200)
+            .map(|i| {
+                let k = i as f64;
+                let dir = if both_ways && i % 2 == 1 { -1.0 } else { 1.0 };
+                let x = [
+                    0.5 + 0.1 * k.sin(),
+                    1e-3 * (0.7 * k).cos(),
+                    dir * 0.01 * (1.0 + 0.3 * (1.3 * k).sin()),
+                    dir * t,
+                    t,
+                ];
+                let y = jm * x[0] + x[1] + viscous * x[2] + coulomb * x[3] + offset_nm * x[4];
+                Row { x, y }
+            })
+            .collect()
+    }
+
+    fn balance(rows: Vec<Row>) -> Balance {
+        let coef = fit_balance(&rows, false).unwrap();
+        Balance {
+            params: BeamParams::aluminium(),
+            rows,
+            coef,
+            offset_fitted: false,
+        }
+    }
+
+    #[test]
+    fn an_offset_left_out_is_named_as_the_cause_when_it_makes_the_balance_physical() {
+        let b = balance(rows(-0.5, true));
+        // Left out, the offset's torque is taken for inertia: Jm comes out negative.
+        let d = b.derived(&b.coef, Reference::Torque);
+        assert!(!physical(&d), "{d:?}");
+        match unphysical_cause(&b, Reference::Torque) {
+            UnphysicalCause::Offset { offset_nm, jm } => {
+                assert!((offset_nm + 0.5).abs() < 1e-6, "{offset_nm}");
+                assert!((jm - 0.007).abs() < 1e-6, "{jm}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // Moving one way an offset cannot be told from Coulomb friction: no cause claimed.
+        let one_way = balance(rows(-0.5, false));
+        assert_eq!(
+            unphysical_cause(&one_way, Reference::Torque),
+            UnphysicalCause::Unknown
+        );
     }
 }

@@ -675,6 +675,18 @@ fn warnings(found: &Found, names: &[String]) -> Vec<String> {
         out.extend(steps_disagree(&found.steps, errs));
     }
     out.extend(logs_disagree(&found.each_log, names));
+    if let Some((s, u)) = split
+        .as_ref()
+        .and_then(|s| s.unplaced_offset.map(|u| (s, u)))
+    {
+        out.push(format!(
+            "the torque balance leaves {:.3e} N m ({:.0} times its error) that it cannot place in either direction of motion: the torque's zero is off, or Coulomb friction differs between the directions (by twice that); --torque-offset fits it (the balance's residual then falls from {:.2e} to {:.2e} N m RMS)",
+            u.offset_nm,
+            u.offset_nm.abs() / u.std_err_nm.max(f64::MIN_POSITIVE),
+            s.balance_rms_err_nm,
+            u.rms_err_with_nm
+        ));
+    }
     if let Some(s) = split.as_ref().filter(|s| s.replay_drifts()) {
         out.push(format!(
             "the found model, driven open loop by the logged torque, drifts {:.1} deg RMS from the logged angle, {:.0} % of the move: it does not explain the torque; check the starting parameters (each log's tip mass, the gauge's position) against the rig",
