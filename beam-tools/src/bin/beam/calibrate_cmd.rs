@@ -78,7 +78,9 @@ pub struct CalibrateArgs {
     #[arg(long)]
     fit_gauge_position: bool,
     /// With `--method split`: fit an offset of the logged torque (a bias, the same both
-    /// ways, unlike Coulomb friction). The logs must move both ways.
+    /// ways, unlike Coulomb friction). The logs must move both ways. Without it, an offset
+    /// is fitted anyway, and said, when the balance leaves a torque it cannot place in either
+    /// direction (more than 4 times its error, and half the balance's residual).
     #[arg(long)]
     torque_offset: bool,
     /// COBYLA evaluations per local search.
@@ -119,7 +121,7 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     let Read {
         exps, names, notes, ..
     } = read;
-    found.notes = notes;
+    found.notes = notes.into_iter().chain(found.notes).collect();
     write_files(a, &found, &exps, &names)?;
     let (fm, gm) = with_modes!(a.plant.modes, summary(&found.params, &guess))?;
     if a.json {
@@ -387,6 +389,24 @@ fn identify_joint(
             }
             r => r?,
         };
+    // A torque the balance could not place in either direction (an offset of the torque's
+    // zero, or friction that differs by direction): fitted, and said, as a found lag is.
+    let mut notes = vec![];
+    let (params, sensors, split) = match split.unplaced_offset {
+        Some(u) if !options.fit_offset => {
+            let options = SplitOptions {
+                fit_offset: true,
+                ..options
+            };
+            let refit = with_modes!(a.plant.modes, calibrate_split(exps, guess, &options))?;
+            notes.push(format!(
+                "the torque balance left {:.3e} N m that it could not place in either direction of motion (the balance's residual {:.2e} N m RMS, {:.2e} with it): the torque's zero is off, or Coulomb friction differs between the directions (by twice that); a torque offset is fitted ({:.3e} N m)",
+                u.offset_nm, split.balance_rms_err_nm, u.rms_err_with_nm, refit.1.torque_offset_nm
+            ));
+            refit
+        }
+        _ => (params, sensors, split),
+    };
     let per_log = with_modes!(a.plant.modes, log_fits(&params, &sensors, exps))?;
     Ok(Found {
         params,
@@ -395,7 +415,7 @@ fn identify_joint(
         spread: Some((split.uncertainty.clone(), split.tradeoffs.clone())),
         split: Some(split),
         each_log: vec![],
-        notes: vec![],
+        notes,
     })
 }
 
@@ -675,18 +695,6 @@ fn warnings(found: &Found, names: &[String]) -> Vec<String> {
         out.extend(steps_disagree(&found.steps, errs));
     }
     out.extend(logs_disagree(&found.each_log, names));
-    if let Some((s, u)) = split
-        .as_ref()
-        .and_then(|s| s.unplaced_offset.map(|u| (s, u)))
-    {
-        out.push(format!(
-            "the torque balance leaves {:.3e} N m ({:.0} times its error) that it cannot place in either direction of motion: the torque's zero is off, or Coulomb friction differs between the directions (by twice that); --torque-offset fits it (the balance's residual then falls from {:.2e} to {:.2e} N m RMS)",
-            u.offset_nm,
-            u.offset_nm.abs() / u.std_err_nm.max(f64::MIN_POSITIVE),
-            s.balance_rms_err_nm,
-            u.rms_err_with_nm
-        ));
-    }
     if let Some(s) = split.as_ref().filter(|s| s.replay_drifts()) {
         out.push(format!(
             "the found model, driven open loop by the logged torque, drifts {:.1} deg RMS from the logged angle, {:.0} % of the move: it does not explain the torque; check the starting parameters (each log's tip mass, the gauge's position) against the rig",
