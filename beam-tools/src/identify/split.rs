@@ -401,11 +401,11 @@ fn unphysical_cause(balance: &Balance, reference: Reference) -> UnphysicalCause 
     }
 }
 
-/// How many of its standard errors an offset the balance was not asked for must be, and
-/// how much of the residual's RMS it must take away, to be reported ([`unplaced_offset`]).
+/// How many of its standard errors an offset the balance was not asked for must be, when
+/// the balance is refitted with one, to be reported (and fitted by default).
 pub const UNPLACED_SIGMAS: f64 = 4.0;
-/// See [`UNPLACED_SIGMAS`]: the residual's RMS with the offset at most this fraction of it
-/// without.
+/// See [`UNPLACED_SIGMAS`]: the residual's RMS with the offset must be at most this fraction
+/// of it without.
 pub const UNPLACED_RMS_RATIO: f64 = 0.5;
 
 /// With no offset fitted and the logs moving both ways, the balance refitted with one;
@@ -450,7 +450,8 @@ fn unplaced_offset(
         })
 }
 
-/// A torque the balance could not place in either direction of motion ([`unplaced_offset`]).
+/// A torque the balance could not place in either direction of motion, found by refitting
+/// the balance with an offset.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct UnplacedOffset {
     /// The offset the balance finds when it is given one, N m.
