@@ -89,7 +89,18 @@ impl LawGains for SmcModalGains {
         point: &PlantPoint,
         plant: &impl LawPlant,
     ) -> Result<ControlLaw, ParamError> {
-        let law = self.design_weights().build(plain, point, plant)?;
+        // The LQG law's refusals, named for this law.
+        let law = self
+            .design_weights()
+            .build(plain, point, plant)
+            .map_err(|e| ParamError {
+                field: if e.field == "lqg" {
+                    "smc-modal"
+                } else {
+                    e.field
+                },
+                ..e
+            })?;
         #[cfg(feature = "observer")]
         if !(law.observer.k[super::lqg::RATE] > 0.0) {
             return Err(ParamError {
@@ -123,5 +134,21 @@ impl LawGains for SmcModalGains {
             let _ = (law, x, r, state);
             0.0
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::model;
+    use super::*;
+    use crate::law::Law;
+
+    #[test]
+    fn on_a_drives_compiled_plant_it_is_refused_in_its_own_name() {
+        // A drive carries the plant at its payload, not a modal model to design on.
+        let point = PlantPoint::of(&model());
+        let e = ControlLaw::try_build(Law::SmcModal(SmcModalGains::START), point).unwrap_err();
+        assert_eq!(e.field, "smc-modal");
+        assert_eq!(e.kind, crate::beam::ParamErrorKind::NeedsModel);
     }
 }
