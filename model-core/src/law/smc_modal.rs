@@ -89,26 +89,36 @@ impl LawGains for SmcModalGains {
         point: &PlantPoint,
         plant: &impl LawPlant,
     ) -> Result<ControlLaw, ParamError> {
-        // The LQG law's refusals, named for this law.
-        let law = self
-            .design_weights()
-            .build(plain, point, plant)
-            .map_err(|e| ParamError {
-                field: if e.field == "lqg" {
-                    "smc-modal"
-                } else {
-                    e.field
-                },
-                ..e
-            })?;
         #[cfg(feature = "observer")]
-        if !(law.observer.k[super::lqg::RATE] > 0.0) {
-            return Err(ParamError {
-                field: "kp",
-                kind: ParamErrorKind::NoDesign,
-            });
+        {
+            // The LQG law's refusals, named for this law.
+            let law = self
+                .design_weights()
+                .build(plain, point, plant)
+                .map_err(|e| ParamError {
+                    field: if e.field == "lqg" {
+                        "smc-modal"
+                    } else {
+                        e.field
+                    },
+                    ..e
+                })?;
+            if !(law.observer.k[super::lqg::RATE] > 0.0) {
+                return Err(ParamError {
+                    field: "kp",
+                    kind: ParamErrorKind::NoDesign,
+                });
+            }
+            Ok(law)
         }
-        Ok(law)
+        #[cfg(not(feature = "observer"))]
+        {
+            let _ = (plain, point, plant);
+            Err(ParamError {
+                field: "smc-modal",
+                kind: crate::beam::ParamErrorKind::NeedsModel,
+            })
+        }
     }
 
     #[inline(always)]
