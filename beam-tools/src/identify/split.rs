@@ -134,7 +134,8 @@ pub struct SplitReport {
     /// negative and that was set to zero.
     pub at_bound: Vec<AtBound>,
     /// With no offset asked for, a torque the balance could not place in either direction
-    /// of motion, found by fitting an offset too (`None`: none, or not testable).
+    /// of motion, found by fitting an offset too; when set, the offset was fitted for it
+    /// (`offset_fitted`). `None`: none, or not testable.
     pub unplaced_offset: Option<UnplacedOffset>,
 }
 
@@ -299,7 +300,34 @@ pub fn calibrate_split<const N: usize>(
         rates: &rates,
         observers: &observers,
     };
-    let balance = solve_balance::<N>(&inputs, &views.hubs, &beam.params, options)?;
+    let first = rigid_body::<N>(&inputs, &views, &beam, options)?;
+    // A torque the balance could not place in either direction ([`unplaced_offset`]): the
+    // rigid body again with an offset (step 1, the beam, does not depend on it), and said.
+    match first.2.unplaced_offset {
+        Some(u) => {
+            let with_offset = SplitOptions {
+                fit_offset: true,
+                ..*options
+            };
+            let (found, sensors, mut report) =
+                rigid_body::<N>(&inputs, &views, &beam, &with_offset)?;
+            report.unplaced_offset = Some(u);
+            Ok((found, sensors, report))
+        }
+        None => Ok(first),
+    }
+}
+
+/// Step 2 and what follows it, on step 1's `beam`: the torque balance, its spread, the
+/// intervals and trade-offs of both steps, and the check figures.
+fn rigid_body<const N: usize>(
+    inputs: &BalanceInputs,
+    views: &HubViews,
+    beam: &BeamFit,
+    options: &SplitOptions,
+) -> Result<(BeamParams, Sensors, SplitReport), CalibrateError> {
+    let (exps, reference) = (inputs.exps, options.reference);
+    let balance = solve_balance::<N>(inputs, &views.hubs, &beam.params, options)?;
     let d = balance.derived(&balance.coef, reference);
     if !physical(&d) {
         return Err(CalibrateError::Unphysical {
@@ -336,17 +364,17 @@ pub fn calibrate_split<const N: usize>(
         torque_offset_nm: d[5],
         gauge_scale: beam.gauge_scale,
     };
-    let spread = balance_spread::<N>(&inputs, &views, &balance, &d, reference)?;
-    let window_shift = window_shifts(&spread, &beam, &balance.params, options);
+    let spread = balance_spread::<N>(inputs, views, &balance, &d, reference)?;
+    let window_shift = window_shifts(&spread, beam, &balance.params, options);
     let uncertainty = uncertainties(
         &spread,
-        &beam,
+        beam,
         &found,
         &sensors,
         options,
         balance.offset_fitted,
     );
-    let tradeoffs = tradeoffs(&spread, &beam);
+    let tradeoffs = tradeoffs(&spread, beam);
     let check = check_figures::<N>(exps, &balance, &found, &sensors)?;
     let unplaced_offset = unplaced_offset(exps, &balance, reference, check.balance_rms_err_nm);
     Ok((
@@ -365,7 +393,7 @@ pub fn calibrate_split<const N: usize>(
             uncertainty,
             tradeoffs,
             window_shift,
-            encoder_step_rad: views.steps,
+            encoder_step_rad: views.steps.clone(),
             encoder_step_given: options.encoder_step_rad.is_some(),
             at_bound,
             unplaced_offset,
@@ -447,6 +475,7 @@ fn unplaced_offset(
             offset_nm,
             std_err_nm: std_err,
             rms_err_with_nm: rms_with,
+            rms_err_without_nm: rms_without,
         })
 }
 
@@ -458,9 +487,10 @@ pub struct UnplacedOffset {
     pub offset_nm: f64,
     /// Its one-sigma error (block bootstrap), N m.
     pub std_err_nm: f64,
-    /// The balance's residual RMS with it, N m (without it: the report's
-    /// `balance_rms_err_nm`).
+    /// The balance's residual RMS with it, N m.
     pub rms_err_with_nm: f64,
+    /// The balance's residual RMS without it, N m.
+    pub rms_err_without_nm: f64,
 }
 
 /// `guess` checked, with a known density put in (EI moved with it, at the ratio), and the

@@ -390,23 +390,17 @@ fn identify_joint(
             r => r?,
         };
     // A torque the balance could not place in either direction (an offset of the torque's
-    // zero, or friction that differs by direction): fitted, and said, as a found lag is.
-    let mut notes = vec![];
-    let (params, sensors, split) = match split.unplaced_offset {
-        Some(u) if !options.fit_offset => {
-            let options = SplitOptions {
-                fit_offset: true,
-                ..options
-            };
-            let refit = with_modes!(a.plant.modes, calibrate_split(exps, guess, &options))?;
-            notes.push(format!(
-                "the torque balance left {:.3e} N m that it could not place in either direction of motion (the balance's residual {:.2e} N m RMS, {:.2e} with it): the torque's zero is off, or Coulomb friction differs between the directions (by twice that); a torque offset is fitted ({:.3e} N m)",
-                u.offset_nm, split.balance_rms_err_nm, u.rms_err_with_nm, refit.1.torque_offset_nm
-            ));
-            refit
-        }
-        _ => (params, sensors, split),
-    };
+    // zero, or friction that differs by direction): the split fitted it; said, as a found lag
+    // is.
+    let notes = split
+        .unplaced_offset
+        .filter(|_| !options.fit_offset)
+        .map(|u| format!(
+            "the torque balance left {:.3e} N m that it could not place in either direction of motion (the balance's residual {:.2e} N m RMS, {:.2e} with it): the torque's zero is off, or Coulomb friction differs between the directions (by twice that); a torque offset is fitted ({:.3e} N m)",
+            u.offset_nm, u.rms_err_without_nm, u.rms_err_with_nm, sensors.torque_offset_nm
+        ))
+        .into_iter()
+        .collect();
     let per_log = with_modes!(a.plant.modes, log_fits(&params, &sensors, exps))?;
     Ok(Found {
         params,
