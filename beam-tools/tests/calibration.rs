@@ -148,7 +148,7 @@ fn a_log_from_another_rig_reads_with_its_own_columns_and_units() {
     for &k in &keep {
         other.push_str(&format!(
             "{},{},{},{}\n",
-            si.root_strain[k] * 1e6,
+            si.beam_signal[k] * 1e6,
             5000.0 + si.t[k] * 1e3,
             si.theta[k].to_degrees() + 30.0,
             si.torque[k]
@@ -161,7 +161,7 @@ fn a_log_from_another_rig_reads_with_its_own_columns_and_units() {
     for (i, &k) in keep.iter().enumerate() {
         assert!((log.t[i] - (5.0 + si.t[k])).abs() < 1e-9);
         assert!((log.theta[i] - (si.theta[k] + 30f64.to_radians())).abs() < 1e-9);
-        assert!((log.root_strain[i] - si.root_strain[k]).abs() < 1e-12);
+        assert!((log.beam_signal[i] - si.beam_signal[k]).abs() < 1e-12);
     }
     let (a, b) = (find_windows(&si).unwrap(), find_windows(&log).unwrap());
     // Within a sample of the 500 Hz log.
@@ -227,7 +227,7 @@ fn the_true_model_replayed_on_its_own_log_explains_it() {
     let w = find_windows(&log).unwrap();
     let good = replay_report::<3>(&truth, &Sensors::default(), &log, &w).unwrap();
     eprintln!("{good:?}");
-    assert!(good.strain_rel_err < 0.15, "{good:?}");
+    assert!(good.beam_rel_err < 0.15, "{good:?}");
     let (fl, fm) = (good.freq_log_hz.unwrap(), good.freq_model_hz.unwrap());
     assert!((fl - fm).abs() / fl < 0.03, "{fl} vs {fm} Hz");
     let wrong = BeamParams {
@@ -236,7 +236,7 @@ fn the_true_model_replayed_on_its_own_log_explains_it() {
     };
     let bad = replay_report::<3>(&wrong, &Sensors::default(), &log, &w).unwrap();
     eprintln!("{bad:?}");
-    assert!(bad.strain_rel_err > 2.0 * good.strain_rel_err, "{bad:?}");
+    assert!(bad.beam_rel_err > 2.0 * good.beam_rel_err, "{bad:?}");
     let off =
         |r: &beam_tools::identify::replay::ReplayReport| (r.freq_model_hz.unwrap() - fl).abs();
     assert!(off(&bad) > 3.0 * off(&good), "{bad:?}");
@@ -280,7 +280,7 @@ fn the_torque_replay_stays_stable_at_500_hz_with_the_hub_at_rest_under_coulomb_f
     log.t = keep(&full.t);
     log.torque = keep(&full.torque);
     log.theta = keep(&full.theta);
-    log.root_strain = keep(&full.root_strain);
+    log.beam_signal = keep(&full.beam_signal);
     log.mid_strain = full.mid_strain.as_ref().map(keep);
     let (th, _) = replay::<3>(&truth, &log, 1.5).unwrap();
     assert!(th.iter().all(|x| x.is_finite()));
@@ -357,7 +357,7 @@ fn other_rig_log(
     let keep = |v: &Vec<f64>| v.iter().step_by(2).copied().collect::<Vec<_>>();
     log.t = keep(&full.t);
     log.theta = keep(&full.theta);
-    log.root_strain = keep(&full.root_strain);
+    log.beam_signal = keep(&full.beam_signal);
     log.mid_strain = None;
     let mut x = seed;
     log.torque = full
@@ -450,7 +450,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     let w = find_windows(&held).unwrap();
     let r = replay_report::<3>(&found, &sensors, &held, &w).unwrap();
     eprintln!("held out: {r:?}");
-    assert!(r.strain_rel_err < 0.15, "{r:?}");
+    assert!(r.beam_rel_err < 0.15, "{r:?}");
     // The found sensors explain the torque: the open-loop replay stays within a degree,
     // where the true beam read through a true-reading torque does not (the 5 % error,
     // integrated twice).
@@ -488,7 +488,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
     );
     assert!(rel(fb.ei_nm2, truth.ei_nm2) < 0.05, "{fb:?}");
     let r = replay_report::<3>(&fb, &sb, &held, &w).unwrap();
-    assert!(r.strain_rel_err < 0.15, "{r:?}");
+    assert!(r.beam_rel_err < 0.15, "{r:?}");
 
     // A torque offset of 10 mN m on both logs: fitted over the moves both ways it comes
     // back with Coulomb friction beside it; asked of one way, it is refused.

@@ -124,6 +124,13 @@ pub enum CalibrateError {
     /// No log was given.
     #[error("no log to calibrate on")]
     NoLogs,
+    /// The logs measure the beam with different sensors (one a strain gauge, another a tip
+    /// sensor): one fit pools their errors, which must share a unit.
+    #[error("the logs measure the beam with different sensors ({0} and {1}): calibrate each rig's logs apart")]
+    MixedSensors(&'static str, &'static str),
+    /// The method needs what this sensor cannot give.
+    #[error("{0}")]
+    SensorUnsupported(&'static str),
     /// The model left its range during a step.
     #[error("step `{step}`: the model broke down on this log")]
     Breakdown {
@@ -197,7 +204,63 @@ impl std::fmt::Display for UnphysicalCause {
     }
 }
 
-/// A logged run: uniformly sampled time, applied torque, measured hub angle and root strain.
+/// What a log's beam signal measures: the calibration fits the beam to whichever the rig has.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BeamSensor {
+    /// Strain at the root gauge (the beam's surface, at the gauge's position), strain.
+    #[default]
+    RootStrain,
+    /// The free end's deflection from the hub's line (the beam's elastic deflection at its
+    /// tip, as an optical arm or a camera on the hub reads it), m. The model reads it through
+    /// the mode shapes at the free end.
+    TipDeflection,
+}
+
+impl BeamSensor {
+    /// The modal model's row for this signal: root strain or tip deflection per unit of
+    /// each modal coordinate.
+    pub fn coef<const N: usize>(self, model: &ModalModel<N>) -> [f64; N] {
+        match self {
+            BeamSensor::RootStrain => model.root_strain_coef,
+            BeamSensor::TipDeflection => model.tip_coef,
+        }
+    }
+
+    /// The unit reports give this signal in ([`BeamSensor::unit`]) per SI unit.
+    pub fn display_scale(self) -> f64 {
+        match self {
+            BeamSensor::RootStrain => 1e6,
+            BeamSensor::TipDeflection => 1e3,
+        }
+    }
+
+    /// The unit reports give this signal in: `ue` or `mm`.
+    pub fn unit(self) -> &'static str {
+        match self {
+            BeamSensor::RootStrain => "ue",
+            BeamSensor::TipDeflection => "mm",
+        }
+    }
+
+    /// What the signal is, in words.
+    pub fn name(self) -> &'static str {
+        match self {
+            BeamSensor::RootStrain => "root strain",
+            BeamSensor::TipDeflection => "tip deflection",
+        }
+    }
+
+    /// The signal's short name in JSON keys and CSV columns: `strain` or `tip`.
+    pub fn key(self) -> &'static str {
+        match self {
+            BeamSensor::RootStrain => "strain",
+            BeamSensor::TipDeflection => "tip",
+        }
+    }
+}
+
+/// A logged run: uniformly sampled time, applied torque, measured hub angle and the beam's
+/// signal (root strain or tip deflection).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Log {
     /// Sample times, s (uniform).
@@ -206,8 +269,10 @@ pub struct Log {
     pub torque: Vec<f64>,
     /// Measured hub angle, rad.
     pub theta: Vec<f64>,
-    /// Measured root strain.
-    pub root_strain: Vec<f64>,
+    /// The beam's measured signal, in SI units: what `sensor` says.
+    pub beam_signal: Vec<f64>,
+    /// What `beam_signal` measures.
+    pub sensor: BeamSensor,
     /// Mid-span strain, if logged.
     pub mid_strain: Option<Vec<f64>>,
 }
@@ -221,8 +286,10 @@ pub struct Columns {
     pub torque: (String, f64),
     /// Hub angle: column and unit (rad per unit).
     pub theta: (String, f64),
-    /// Root strain: column and unit (strain per unit).
-    pub root_strain: (String, f64),
+    /// The beam's signal: column and unit (strain or m per unit), and what it measures.
+    pub beam: (String, f64),
+    /// What the beam's column measures.
+    pub sensor: BeamSensor,
     /// Mid-span strain, if logged: column and unit.
     pub mid_strain: Option<(String, f64)>,
 }
@@ -234,7 +301,8 @@ impl Default for Columns {
             t: ("t_s".into(), 1.0),
             torque: ("torque_nm".into(), 1.0),
             theta: ("theta_rad".into(), 1.0),
-            root_strain: ("root_strain".into(), 1.0),
+            beam: ("root_strain".into(), 1.0),
+            sensor: BeamSensor::RootStrain,
             mid_strain: Some(("mid_strain".into(), 1.0)),
         }
     }
@@ -242,10 +310,13 @@ impl Default for Columns {
 
 impl Columns {
     /// The defaults with some quantities mapped, from `t=time_ms:ms,theta=hub:deg,...`:
-    /// quantities `t`, `torque`, `theta`, `strain`, `mid`; units `s`, `ms`, `us` (time),
-    /// `nm`, `mnm` (torque), `rad`, `deg` (angle), `strain`, `ue` (strain).
+    /// quantities `t`, `torque`, `theta`, `strain` (root strain), `tip` (tip deflection, in
+    /// place of the root strain), `mid`; units `s`, `ms`, `us` (time), `nm`, `mnm`
+    /// (torque), `rad`, `deg` (angle), `strain`, `ue` (strain), `m`, `mm` (deflection).
+    /// A log has one beam signal: `strain` and `tip` together are refused.
     pub fn parse(spec: &str) -> Result<Self, String> {
         let mut c = Columns::default();
+        let (mut strain_given, mut tip_given) = (false, false);
         for item in spec.split(',').map(str::trim).filter(|i| !i.is_empty()) {
             let (what, rest) = item
                 .split_once('=')
@@ -270,24 +341,39 @@ impl Columns {
                         }),
                 }
             };
-            let slot = (column.to_string(), 0.0);
+            let column = column.to_string();
             match what.trim() {
-                "t" => c.t = (slot.0, scale(&[("s", 1.0), ("ms", 1e-3), ("us", 1e-6)])?),
-                "torque" => c.torque = (slot.0, scale(&[("nm", 1.0), ("mnm", 1e-3)])?),
+                "t" => c.t = (column, scale(&[("s", 1.0), ("ms", 1e-3), ("us", 1e-6)])?),
+                "torque" => c.torque = (column, scale(&[("nm", 1.0), ("mnm", 1e-3)])?),
                 "theta" => {
                     c.theta = (
-                        slot.0,
+                        column,
                         scale(&[("rad", 1.0), ("deg", core::f64::consts::PI / 180.0)])?,
                     )
                 }
-                "strain" => c.root_strain = (slot.0, scale(&[("strain", 1.0), ("ue", 1e-6)])?),
-                "mid" => c.mid_strain = Some((slot.0, scale(&[("strain", 1.0), ("ue", 1e-6)])?)),
+                "strain" => {
+                    strain_given = true;
+                    c.beam = (column, scale(&[("strain", 1.0), ("ue", 1e-6)])?);
+                    c.sensor = BeamSensor::RootStrain;
+                }
+                "tip" => {
+                    tip_given = true;
+                    c.beam = (column, scale(&[("m", 1.0), ("mm", 1e-3)])?);
+                    c.sensor = BeamSensor::TipDeflection;
+                }
+                "mid" => c.mid_strain = Some((column, scale(&[("strain", 1.0), ("ue", 1e-6)])?)),
                 other => {
                     return Err(format!(
-                        "`{other}` is not a quantity: t, torque, theta, strain or mid"
+                        "`{other}` is not a quantity: t, torque, theta, strain, tip or mid"
                     ))
                 }
             }
+        }
+        if strain_given && tip_given {
+            return Err(
+                "`strain` and `tip` both given: the calibration fits one beam signal; map the one to fit"
+                    .into(),
+            );
         }
         Ok(c)
     }
@@ -329,7 +415,7 @@ pub fn read_log_with(text: &str, file: &str, columns: &Columns) -> Result<Log, L
         need(&columns.t.0)?,
         need(&columns.torque.0)?,
         need(&columns.theta.0)?,
-        need(&columns.root_strain.0)?,
+        need(&columns.beam.0)?,
     );
     let im = columns.mid_strain.as_ref().and_then(|(name, _)| col(name));
     let unit_mid = columns.mid_strain.as_ref().map_or(1.0, |m| m.1);
@@ -337,7 +423,8 @@ pub fn read_log_with(text: &str, file: &str, columns: &Columns) -> Result<Log, L
         t: vec![],
         torque: vec![],
         theta: vec![],
-        root_strain: vec![],
+        beam_signal: vec![],
+        sensor: columns.sensor,
         mid_strain: im.map(|_| vec![]),
     };
     for (n, line) in lines {
@@ -374,7 +461,7 @@ pub fn read_log_with(text: &str, file: &str, columns: &Columns) -> Result<Log, L
         log.t.push(t);
         log.torque.push(num(iu)? * columns.torque.1);
         log.theta.push(num(ith)? * columns.theta.1);
-        log.root_strain.push(num(ie)? * columns.root_strain.1);
+        log.beam_signal.push(num(ie)? * columns.beam.1);
         if let (Some(i), Some(m)) = (im, log.mid_strain.as_mut()) {
             m.push(num(i)? * unit_mid);
         }
@@ -409,7 +496,8 @@ impl Log {
             t: pick(&self.t),
             torque: pick(&self.torque),
             theta: pick(&self.theta),
-            root_strain: pick(&self.root_strain),
+            beam_signal: pick(&self.beam_signal),
+            sensor: self.sensor,
             mid_strain: self.mid_strain.as_deref().map(pick),
         };
         if log.t.len() < 100 {
@@ -430,7 +518,7 @@ impl Log {
         let at = |v: &[f64], k: usize| v[k + whole] + frac * (v[k + whole + 1] - v[k + whole]);
         let shifted = |v: &[f64]| (0..n).map(|k| at(v, k)).collect::<Vec<f64>>();
         Log {
-            root_strain: shifted(&self.root_strain),
+            beam_signal: shifted(&self.beam_signal),
             mid_strain: self.mid_strain.as_deref().map(shifted),
             ..self.slice(0..n)
         }
@@ -442,7 +530,8 @@ impl Log {
             t: self.t[range.clone()].to_vec(),
             torque: self.torque[range.clone()].to_vec(),
             theta: self.theta[range.clone()].to_vec(),
-            root_strain: self.root_strain[range.clone()].to_vec(),
+            beam_signal: self.beam_signal[range.clone()].to_vec(),
+            sensor: self.sensor,
             mid_strain: self.mid_strain.as_ref().map(|m| m[range].to_vec()),
         }
     }
@@ -685,8 +774,8 @@ impl Fitted {
     }
 }
 
-/// Replays the log's torque through the plant with `params`: the simulated hub angle and root
-/// strain at each sample up to `t_end`, with RK4 at a step inside its stability region. `None` if the parameters are invalid or the model
+/// Replays the log's torque through the plant with `params`: the simulated hub angle and
+/// beam signal (the log's [`BeamSensor`]) at each sample up to `t_end`, with RK4 at a step inside its stability region. `None` if the parameters are invalid or the model
 /// breaks down.
 pub fn replay<const N: usize>(
     params: &BeamParams,
@@ -702,10 +791,11 @@ pub fn replay<const N: usize>(
     let steps = ((dt / plant.stable_step_s()).ceil() as usize).clamp(4, 10_000);
     let h = dt / steps as f64;
     let mut x = State::<N>::at_rest(log.theta[0]);
+    let row = log.sensor.coef(&plant.model);
     let (mut th, mut eps) = (Vec::new(), Vec::new());
     for k in 0..log.t.len() {
         th.push(x.theta);
-        eps.push(plant.outputs(&x).root_strain);
+        eps.push(model_core::linalg::dot(&row, &x.q));
         if log.t[k] - log.t[0] >= t_end - 1e-9 {
             break;
         }
@@ -778,8 +868,9 @@ impl Experiment {
     }
 }
 
-/// Sums of squared hub-angle error (rad^2) and root-strain error (ue^2) over the step's part
-/// of one log, and the number of samples.
+/// Sums of squared hub-angle error (rad^2) and beam-signal error (ue^2 of root strain, or
+/// mm^2 of tip deflection: [`BeamSensor::unit`]) over the step's part of one log, and the
+/// number of samples.
 fn squared_errors<const N: usize>(
     params: &BeamParams,
     e: &Experiment,
@@ -794,7 +885,7 @@ fn squared_errors<const N: usize>(
         let t = log.t[k] - t0;
         if t >= a - 1e-9 && t <= b + 1e-9 {
             se += (th[k] - log.theta[k]).powi(2);
-            ss += ((eps[k] - log.root_strain[k]) * 1e6).powi(2);
+            ss += ((eps[k] - log.beam_signal[k]) * log.sensor.display_scale()).powi(2);
             n += 1;
         }
     }
@@ -833,7 +924,7 @@ pub fn log_fits<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<V
             let n = n.max(1) as f64;
             Some(LogFit {
                 rms_theta_err_rad: (se / n).sqrt(),
-                rms_strain_err_ue: (ss / n).sqrt(),
+                rms_beam_err: (ss / n).sqrt(),
             })
         })
         .collect()
@@ -844,8 +935,9 @@ pub fn log_fits<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<V
 pub struct LogFit {
     /// RMS hub-angle error, rad.
     pub rms_theta_err_rad: f64,
-    /// RMS root-strain error, microstrain.
-    pub rms_strain_err_ue: f64,
+    /// RMS error of the beam's signal, in its display unit ([`BeamSensor::unit`]: ue of
+    /// root strain, mm of tip deflection).
+    pub rms_beam_err: f64,
 }
 
 /// One step's outcome.
@@ -1044,7 +1136,7 @@ pub fn uncertainty<const N: usize>(
                 let t = e.log.t[k] - t0;
                 if t >= a - 1e-9 && t <= b + 1e-9 {
                     r.push((th[k] - e.log.theta[k]) / count_rad());
-                    r.push((eps[k] - e.log.root_strain[k]) / STRAIN_SCALE);
+                    r.push((eps[k] - e.log.beam_signal[k]) / STRAIN_SCALE);
                 }
             }
         }
@@ -1141,6 +1233,12 @@ pub fn calibrate_many<const N: usize>(
 ) -> Result<(BeamParams, Vec<StepReport>, Vec<LogFit>), CalibrateError> {
     let log = exps;
     let first = exps.first().ok_or(CalibrateError::NoLogs)?.windows;
+    if exps.iter().any(|e| e.log.sensor != BeamSensor::RootStrain) {
+        return Err(CalibrateError::SensorUnsupported(
+            "the paper's method fits the root gauge's position on the root strain: a log of \
+             the tip's deflection calibrates with --method split",
+        ));
+    }
     Beam::try_build(*guess)?;
     let mut p = *guess;
     let mut reports = Vec::new();
@@ -1236,7 +1334,7 @@ pub fn calibrate_many<const N: usize>(
             let n = n.max(1) as f64;
             Ok(LogFit {
                 rms_theta_err_rad: (se / n).sqrt(),
-                rms_strain_err_ue: (ss / n).sqrt(),
+                rms_beam_err: (ss / n).sqrt(),
             })
         })
         .collect::<Result<Vec<_>, CalibrateError>>()?;

@@ -3,7 +3,7 @@
 //! hub itself, by the logged torque open loop; with the figures that say how well the model
 //! explains the log.
 
-use crate::identify::calibrate::{replay as replay_torque, Log, Windows};
+use crate::identify::calibrate::{replay as replay_torque, BeamSensor, Log, Windows};
 use crate::io::params_file::Sensors;
 use host_tests::plant::Plant;
 use model_core::{Beam, BeamParams, ModalModel};
@@ -14,16 +14,20 @@ use serde::Serialize;
 pub struct ReplayReport {
     /// RMS hub-angle error of the open-loop torque replay over the move and settling, deg.
     pub hub_rms_err_deg: f64,
-    /// RMS root-strain error with the hub prescribed, over the move and settling, ue.
-    pub strain_rms_err_ue: f64,
-    /// RMS of the measured root strain over the same window, ue (the error's yardstick).
-    pub strain_rms_measured_ue: f64,
-    /// The strain error as a fraction of the measured RMS.
-    pub strain_rel_err: f64,
-    /// The first vibration frequency in the logged strain from the end of the move to the
-    /// end of the log, Hz.
+    /// What the log measures the beam with: `root strain` or `tip deflection`.
+    pub beam_signal: &'static str,
+    /// The unit of the two figures below: `ue` (root strain) or `mm` (tip deflection).
+    pub beam_unit: &'static str,
+    /// RMS error of the beam's signal with the hub prescribed, over the move and settling.
+    pub beam_rms_err: f64,
+    /// RMS of the measured signal over the same window (the error's yardstick).
+    pub beam_rms_measured: f64,
+    /// The error as a fraction of the measured RMS.
+    pub beam_rel_err: f64,
+    /// The first vibration frequency in the logged beam signal from the end of the move to
+    /// the end of the log, Hz.
     pub freq_log_hz: Option<f64>,
-    /// The same from the model's strain (hub prescribed), Hz.
+    /// The same from the model's (hub prescribed), Hz.
     pub freq_model_hz: Option<f64>,
     /// Why a frequency is missing, if one is: the window after the move too short to hold
     /// two cycles of the vibration, or no vibration in it.
@@ -195,8 +199,9 @@ impl HubMotion {
 /// The beam driven by a prescribed hub, sample by sample.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Prescribed {
-    /// Root strain the model implies (gauge scale 1).
-    pub root_strain: Vec<f64>,
+    /// The beam signal the model implies for the log's sensor (root strain or tip
+    /// deflection, SI, gauge scale 1).
+    pub beam_signal: Vec<f64>,
     /// Mid-span strain the model implies.
     pub mid_strain: Vec<f64>,
     /// The part of the torque the beam (and tip) take from the hub that their flexing
@@ -222,13 +227,13 @@ pub const MAX_STRAIN_DELAY_S: f64 = 0.1;
 /// strain is flat.
 pub fn strain_delay<const N: usize>(params: &BeamParams, log: &Log) -> Option<f64> {
     let hub = HubMotion::of(log, hub_window_s(params));
-    let model = prescribed::<N>(params, log, &hub)?.root_strain;
+    let model = prescribed::<N>(params, log, &hub)?.beam_signal;
     // Only while the hub moves: there the strain is what the hub's acceleration forces, and
     // a model a few percent off in frequency has the phase right; in the ringing after, its
     // phase drifts by the frequency's error and pulls the peak.
     let peak = hub.omega.iter().fold(0.0f64, |a, w| a.max(w.abs()));
     let moving: Vec<bool> = hub.omega.iter().map(|w| w.abs() > 0.05 * peak).collect();
-    let logged = &log.root_strain;
+    let logged = &log.beam_signal;
     let dt = log.t[1] - log.t[0];
     let max_lag = ((MAX_STRAIN_DELAY_S / dt).round() as usize).min(logged.len() / 4);
     // Correlation of model[k] with logged[k + lag], over the samples both have.
@@ -274,7 +279,7 @@ pub fn strain_delay<const N: usize>(params: &BeamParams, log: &Log) -> Option<f6
 /// [`hub_window_s`].
 pub fn replay_prescribed<const N: usize>(params: &BeamParams, log: &Log) -> Option<Vec<f64>> {
     let hub = HubMotion::of(log, hub_window_s(params));
-    prescribed::<N>(params, log, &hub).map(|p| p.root_strain)
+    prescribed::<N>(params, log, &hub).map(|p| p.beam_signal)
 }
 
 /// The beam of an `N`-mode model of `params` driven by `hub` (sampled at `log`'s times);
@@ -341,6 +346,7 @@ fn strain_kalman_gain<const N: usize>(
     plant: &Plant<N>,
     dt: f64,
     obs: &StrainObserver,
+    row: &[f64; N],
 ) -> Option<Vec<f64>> {
     let n = 2 * N;
     // One sample of the linear beam (RK4, four sub-steps) from `x` under a held hub
@@ -363,13 +369,7 @@ fn strain_kalman_gain<const N: usize>(
     }
     let b = advance(&vec![0.0; n], 1.0);
     let hrow: Vec<f64> = (0..n)
-        .map(|i| {
-            if i < N {
-                obs.gauge_scale * plant.model.root_strain_coef[i]
-            } else {
-                0.0
-            }
-        })
+        .map(|i| if i < N { obs.gauge_scale * row[i] } else { 0.0 })
         .collect();
     let r = obs.strain_err.max(1e-12).powi(2);
     let qn = obs.alpha_err.powi(2);
@@ -428,10 +428,11 @@ pub fn prescribed_observed<const N: usize>(
     let model = ModalModel::<N>::try_build(&Beam::try_build(*params).ok()?).ok()?;
     let plant = Plant::new(model);
     let dt = log.t[1] - log.t[0];
+    let row = log.sensor.coef(&plant.model);
     // A gain that does not settle leaves the beam uncorrected.
     let gain = observer
         .as_ref()
-        .and_then(|obs| strain_kalman_gain(&plant, dt, obs));
+        .and_then(|obs| strain_kalman_gain(&plant, dt, obs, &row));
     let (omega, alpha) = (&hub.omega, &hub.alpha);
     let mut torque = Vec::with_capacity(log.t.len());
     let mut mid = Vec::with_capacity(log.t.len());
@@ -439,14 +440,14 @@ pub fn prescribed_observed<const N: usize>(
     let mut eps = Vec::with_capacity(log.t.len());
     for k in 0..log.t.len() {
         if let (Some(gain), Some(obs)) = (&gain, &observer) {
-            let innovation = log.root_strain[k]
-                - obs.gauge_scale * model_core::linalg::dot(&plant.model.root_strain_coef, &q);
+            let innovation =
+                log.beam_signal[k] - obs.gauge_scale * model_core::linalg::dot(&row, &q);
             for i in 0..N {
                 q[i] += gain[i] * innovation;
                 qd[i] += gain[N + i] * innovation;
             }
         }
-        eps.push(model_core::linalg::dot(&plant.model.root_strain_coef, &q));
+        eps.push(model_core::linalg::dot(&row, &q));
         mid.push(model_core::linalg::dot(&plant.model.mid_strain_coef, &q));
         let (w, a) = (omega[k], alpha[k]);
         let qdd = plant.flex_acceleration(&q, &qd, w, a);
@@ -470,7 +471,7 @@ pub fn prescribed_observed<const N: usize>(
         }
     }
     Some(Prescribed {
-        root_strain: eps,
+        beam_signal: eps,
         mid_strain: mid,
         flex_torque_nm: torque,
         beam_inertia_kgm2: model.mtt - params.jm_kgm2,
@@ -569,7 +570,7 @@ pub fn corrected(log: &Log, sensors: &Sensors) -> Log {
     log.torque
         .iter_mut()
         .for_each(|u| *u = sensors.applied_torque(*u));
-    log.root_strain
+    log.beam_signal
         .iter_mut()
         .for_each(|e| *e /= sensors.gauge_scale);
     log
@@ -589,10 +590,12 @@ pub struct Traces {
     pub omega_log: Vec<f64>,
     /// Hub rate of the torque replay (central differences), rad/s.
     pub omega_model: Vec<f64>,
-    /// Logged root strain.
-    pub root_log: Vec<f64>,
-    /// Root strain of the beam on the prescribed hub.
-    pub root_model: Vec<f64>,
+    /// What the log measures the beam with.
+    pub sensor: BeamSensor,
+    /// The logged beam signal (root strain or tip deflection, SI).
+    pub beam_log: Vec<f64>,
+    /// The same of the beam on the prescribed hub.
+    pub beam_model: Vec<f64>,
     /// Logged mid-span strain and the model's (hub prescribed), where the log has it.
     pub mid: Option<(Vec<f64>, Vec<f64>)>,
 }
@@ -624,8 +627,9 @@ pub fn traces<const N: usize>(params: &BeamParams, sensors: &Sensors, log: &Log)
         theta_model: th,
         omega_log: hub.omega[..n].to_vec(),
         omega_model,
-        root_log: log.root_strain[..n].to_vec(),
-        root_model: pr.root_strain[..n].iter().map(|e| e * g).collect(),
+        sensor: log.sensor,
+        beam_log: log.beam_signal[..n].to_vec(),
+        beam_model: pr.beam_signal[..n].iter().map(|e| e * g).collect(),
         mid: log
             .mid_strain
             .as_ref()
@@ -635,11 +639,16 @@ pub fn traces<const N: usize>(params: &BeamParams, sensors: &Sensors, log: &Log)
 
 impl Traces {
     /// As CSV: `t_s, theta_log_rad, theta_model_rad, omega_log_rad_s, omega_model_rad_s,
-    /// root_strain_log, root_strain_model[, mid_strain_log, mid_strain_model]`.
+    /// root_strain_log, root_strain_model[, mid_strain_log, mid_strain_model]` (for a tip
+    /// sensor's log `tip_m_log, tip_m_model` in place of the root strain's).
     pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        let beam = match self.sensor {
+            BeamSensor::RootStrain => "root_strain",
+            BeamSensor::TipDeflection => "tip_m",
+        };
         write!(
             w,
-            "t_s,theta_log_rad,theta_model_rad,omega_log_rad_s,omega_model_rad_s,root_strain_log,root_strain_model"
+            "t_s,theta_log_rad,theta_model_rad,omega_log_rad_s,omega_model_rad_s,{beam}_log,{beam}_model"
         )?;
         if self.mid.is_some() {
             write!(w, ",mid_strain_log,mid_strain_model")?;
@@ -654,8 +663,8 @@ impl Traces {
                 self.theta_model[k],
                 self.omega_log[k],
                 self.omega_model[k],
-                self.root_log[k],
-                self.root_model[k]
+                self.beam_log[k],
+                self.beam_model[k]
             )?;
             if let Some((l, m)) = &self.mid {
                 write!(w, ",{},{}", l[k], m[k])?;
@@ -694,11 +703,17 @@ impl Traces {
                 ],
             ),
             (
-                "Root strain (model: logged hub angle)",
-                "microstrain",
+                match self.sensor {
+                    BeamSensor::RootStrain => "Root strain (model: logged hub angle)",
+                    BeamSensor::TipDeflection => "Tip deflection (model: logged hub angle)",
+                },
+                match self.sensor {
+                    BeamSensor::RootStrain => "microstrain",
+                    BeamSensor::TipDeflection => "mm",
+                },
                 vec![
-                    ("log", pts(&self.root_log, 1e6)),
-                    ("model", pts(&self.root_model, 1e6)),
+                    ("log", pts(&self.beam_log, self.sensor.display_scale())),
+                    ("model", pts(&self.beam_model, self.sensor.display_scale())),
                 ],
             ),
         ];
@@ -743,13 +758,14 @@ pub fn replay_report<const N: usize>(
             vibration_hz(&t, signal, windows.end_s, t_last)
         }
     };
-    let (freq_log, freq_model) = (freq(&log.root_strain), freq(&eps));
+    let (freq_log, freq_model) = (freq(&log.beam_signal), freq(&eps));
+    let unit = log.sensor.display_scale();
     let (mut se, mut ss, mut sm, mut n) = (0.0, 0.0, 0.0, 0usize);
     for k in 0..th.len().min(eps.len()) {
         if in_window(k) {
             se += (th[k] - log.theta[k]).powi(2);
-            ss += ((eps[k] - log.root_strain[k]) * 1e6).powi(2);
-            sm += (log.root_strain[k] * 1e6).powi(2);
+            ss += ((eps[k] - log.beam_signal[k]) * unit).powi(2);
+            sm += (log.beam_signal[k] * unit).powi(2);
             n += 1;
         }
     }
@@ -757,9 +773,11 @@ pub fn replay_report<const N: usize>(
     let (strain_err, strain_rms) = ((ss / n).sqrt(), (sm / n).sqrt());
     Some(ReplayReport {
         hub_rms_err_deg: (se / n).sqrt().to_degrees(),
-        strain_rms_err_ue: strain_err,
-        strain_rms_measured_ue: strain_rms,
-        strain_rel_err: strain_err / strain_rms.max(1e-12),
+        beam_signal: log.sensor.name(),
+        beam_unit: log.sensor.unit(),
+        beam_rms_err: strain_err,
+        beam_rms_measured: strain_rms,
+        beam_rel_err: strain_err / strain_rms.max(1e-12),
         freq_log_hz: freq_log.ok(),
         freq_model_hz: freq_model.ok(),
         freq_note: match (freq_log, freq_model) {
@@ -795,7 +813,8 @@ mod tests {
             .collect();
         Log {
             torque: vec![0.0; t.len()],
-            root_strain: vec![0.0; t.len()],
+            beam_signal: vec![0.0; t.len()],
+            sensor: BeamSensor::RootStrain,
             mid_strain: None,
             theta,
             t,
@@ -814,7 +833,7 @@ mod tests {
         let mut log = slew_log(None);
         let strain = replay_prescribed::<3>(&truth, &log).unwrap();
         let lag = 20;
-        log.root_strain = (0..strain.len())
+        log.beam_signal = (0..strain.len())
             .map(|k| strain[k.saturating_sub(lag)])
             .collect();
         // On the beam's own model, to within a millisecond; on the model a tenth off, this
@@ -827,12 +846,12 @@ mod tests {
         assert!(off > 0.025 && off < found, "{off}");
         // Without a lag, none found (within a sample).
         let mut on_time = slew_log(None);
-        on_time.root_strain = strain.clone();
+        on_time.beam_signal = strain.clone();
         assert!(strain_delay::<3>(&truth, &on_time).unwrap().abs() < 0.001);
         // Taken back out, the strain is the beam's again, the log shorter by the lag.
         let back = log.strain_advanced(lag as f64 * 0.002);
         assert_eq!(back.t.len(), log.t.len() - lag - 1);
-        for (b, s) in back.root_strain.iter().zip(&strain).skip(lag) {
+        for (b, s) in back.beam_signal.iter().zip(&strain).skip(lag) {
             assert!((b - s).abs() <= 1e-12 * s.abs().max(1e-9), "{b} {s}");
         }
     }
@@ -854,7 +873,7 @@ mod tests {
         let real_hub = HubMotion::of(&chattering, 0.004);
         let truth = prescribed::<3>(&params, &chattering, &real_hub).unwrap();
         let mut log = clean.clone();
-        log.root_strain = truth.root_strain.clone();
+        log.beam_signal = truth.beam_signal.clone();
         let hub = HubMotion::of(&clean, 0.004);
         let alpha_err = hub.alpha_rms_diff(&real_hub);
         let open = prescribed::<3>(&params, &log, &hub).unwrap();

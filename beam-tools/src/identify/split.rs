@@ -31,7 +31,7 @@
 
 use crate::design::optimize::Param;
 use crate::identify::calibrate::{
-    minimise, replay, AtBound, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
+    minimise, replay, AtBound, BeamSensor, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
     UnphysicalCause,
 };
 use crate::identify::lsq::Normal;
@@ -43,6 +43,7 @@ use crate::io::params_file::Sensors;
 use host_tests::plant::COULOMB_SMOOTHING_RAD_S;
 use model_core::{Beam, BeamParams};
 use rand::{rngs::StdRng, Rng, SeedableRng};
+use rayon::prelude::*;
 
 /// What fixes the level of the masses, stiffness and friction (see the module's docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -105,8 +106,12 @@ pub struct SplitReport {
     pub reference: &'static str,
     /// Whether the torque offset was fitted (asked for, and the logs move both ways).
     pub offset_fitted: bool,
-    /// RMS root-strain error of the beam step (hub prescribed, gauge scale applied), ue.
-    pub beam_rms_strain_err_ue: f64,
+    /// What the beam step fitted: `root strain` or `tip deflection` ([`BeamSensor::name`]).
+    pub beam_signal: &'static str,
+    /// RMS error of the beam step (hub prescribed, gauge scale applied), in `beam_unit`.
+    pub beam_rms_err: f64,
+    /// The unit of `beam_rms_err`: `ue` (root strain) or `mm` (tip deflection).
+    pub beam_unit: &'static str,
     /// Samples in the torque balance.
     pub balance_samples: usize,
     /// RMS of the balance's residual, N m.
@@ -197,7 +202,8 @@ fn in_window(e: &Experiment, k: usize) -> bool {
 struct BeamFit {
     params: BeamParams,
     gauge_scale: f64,
-    rms_ue: f64,
+    /// RMS error of the fit, in the beam signal's display unit ([`BeamSensor::unit`]).
+    rms_err: f64,
     /// Standard errors of ln EI/rho, ln damping, gauge position, gauge scale, ln rho (zero
     /// where held).
     std_err: [f64; 5],
@@ -248,6 +254,19 @@ pub struct SplitOptions {
     pub encoder_step_rad: Option<f64>,
 }
 
+/// The sensor every log measures the beam with; an error if they differ (one fit pools the
+/// residuals, which must share a unit).
+fn one_sensor(exps: &[Experiment]) -> Result<BeamSensor, CalibrateError> {
+    let first = exps.first().ok_or(CalibrateError::NoLogs)?.log.sensor;
+    match exps.iter().find(|e| e.log.sensor != first) {
+        Some(other) => Err(CalibrateError::MixedSensors(
+            first.name(),
+            other.log.sensor.name(),
+        )),
+        None => Ok(first),
+    }
+}
+
 /// Fits one parameter set to all `exps` from `guess` with an `N`-mode model. Returns the
 /// beam, the rig's sensors and the report.
 ///
@@ -261,6 +280,13 @@ pub fn calibrate_split<const N: usize>(
     options: &SplitOptions,
 ) -> Result<(BeamParams, Sensors, SplitReport), CalibrateError> {
     let reference = options.reference;
+    let sensor = one_sensor(exps)?;
+    if options.fit_gauge_position && sensor != BeamSensor::RootStrain {
+        return Err(CalibrateError::SensorUnsupported(
+            "the root gauge's position cannot be fitted on a log without a root gauge (it \
+             measures the tip's deflection)",
+        ));
+    }
     let g = starting_params(exps, guess, reference)?;
     let window = hub_window_s(&g);
     let views = HubViews::of(exps, window, options.encoder_step_rad);
@@ -292,7 +318,7 @@ pub fn calibrate_split<const N: usize>(
         .map(|(h, a)| StrainObserver {
             gauge_scale: beam.gauge_scale,
             alpha_err: h.alpha_rms_diff(a),
-            strain_err: beam.rms_ue * 1e-6,
+            strain_err: beam.rms_err / sensor.display_scale(),
         })
         .collect();
     let inputs = BalanceInputs {
@@ -384,7 +410,9 @@ fn rigid_body<const N: usize>(
             sensors,
             reference: reference.name(),
             offset_fitted: balance.offset_fitted,
-            beam_rms_strain_err_ue: beam.rms_ue,
+            beam_signal: exps[0].log.sensor.name(),
+            beam_rms_err: beam.rms_err,
+            beam_unit: exps[0].log.sensor.unit(),
             balance_samples: balance.rows.len(),
             balance_rms_err_nm: check.balance_rms_err_nm,
             balance_rms_torque_nm: check.balance_rms_torque_nm,
@@ -1021,7 +1049,7 @@ fn fit_beam<const N: usize>(
     );
     let (params, jac) = search.polish::<N>(search.at(&u), hubs)?;
     let n = jac.model.len();
-    let rms_ue = (rss(&jac.model, &jac.measured, jac.scale) / n as f64).sqrt();
+    let rms_err = (rss(&jac.model, &jac.measured, jac.scale) / n as f64).sqrt();
     let (std_err, corr, ln_ei_std_err) = search.intervals(&jac);
     let scale = jac.scale;
     // The model's error as the fit's sensitivity to the hub: the fit polished again from
@@ -1041,10 +1069,17 @@ fn fit_beam<const N: usize>(
             (q.ei_nm2 / params.ei_nm2).ln(),
         ))
     };
+    // Each view's polish is independent of the others': run them side by side (with the
+    // hub smoothed twice and quantised at eight phases, they are most of the step's time).
+    let shifts: Vec<([f64; 5], f64)> = alt_hubs
+        .par_iter()
+        .chain(enc_hubs.par_iter())
+        .map(|hub| shift_on(hub))
+        .collect::<Result<_, _>>()?;
+    let (alt_shifts, enc_shifts) = shifts.split_at(alt_hubs.len());
     // The hub smoothed differently: the larger shift.
     let (mut shift, mut ln_ei_shift) = ([0.0f64; 5], 0.0f64);
-    for alt in alt_hubs {
-        let (d, ln_ei) = shift_on(alt)?;
+    for &(d, ln_ei) in alt_shifts {
         for (s, d) in shift.iter_mut().zip(d) {
             *s = s.max(d.abs());
         }
@@ -1052,8 +1087,7 @@ fn fit_beam<const N: usize>(
     }
     // The angle re-quantised: the RMS shift.
     let (mut encoder, mut ln_ei_encoder) = ([0.0f64; 5], 0.0f64);
-    for hub in enc_hubs {
-        let (d, ln_ei) = shift_on(hub)?;
+    for &(d, ln_ei) in enc_shifts {
         for (s, d) in encoder.iter_mut().zip(d) {
             *s += d * d / enc_hubs.len() as f64;
         }
@@ -1064,7 +1098,7 @@ fn fit_beam<const N: usize>(
     Ok(BeamFit {
         params,
         gauge_scale: scale,
-        rms_ue,
+        rms_err,
         std_err,
         corr,
         ln_ei_std_err,
@@ -1203,7 +1237,8 @@ impl<'a> BeamSearch<'a> {
         p
     }
 
-    /// Model and measured strain (ue) over every log's window, the beam driven by `hubs`.
+    /// Model and measured beam signal (in its display unit, [`BeamSensor::unit`]) over
+    /// every log's window, the beam driven by `hubs`.
     fn strains<const N: usize>(
         &self,
         p: &BeamParams,
@@ -1211,11 +1246,12 @@ impl<'a> BeamSearch<'a> {
     ) -> Option<(Vec<f64>, Vec<f64>)> {
         let (mut model, mut measured) = (vec![], vec![]);
         for (e, hub) in self.exps.iter().zip(hubs) {
-            let eps = prescribed::<N>(&e.params(p), &e.log, hub)?.root_strain;
+            let eps = prescribed::<N>(&e.params(p), &e.log, hub)?.beam_signal;
+            let unit = e.log.sensor.display_scale();
             for (k, m) in eps.iter().enumerate() {
                 if in_window(e, k) {
-                    model.push(m * 1e6);
-                    measured.push(e.log.root_strain[k] * 1e6);
+                    model.push(m * unit);
+                    measured.push(e.log.beam_signal[k] * unit);
                 }
             }
         }

@@ -3,8 +3,9 @@
 use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::identify::calibrate::{
-    calibrate_many, find_windows, read_log_with, split_moves, AtBound, CalibrateError, Columns,
-    Experiment, Log, LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS, REST_BEFORE_S,
+    calibrate_many, find_windows, read_log_with, split_moves, AtBound, BeamSensor, CalibrateError,
+    Columns, Experiment, Log, LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS,
+    REST_BEFORE_S,
 };
 use beam_tools::identify::replay::strain_delay;
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
@@ -17,8 +18,9 @@ use std::path::PathBuf;
 #[derive(Args)]
 pub struct CalibrateArgs {
     /// The logs: CSV with t_s, torque_nm, theta_rad, root_strain [, mid_strain] (or the
-    /// columns of --columns), uniformly sampled at any rate, starting at any angle. With
-    /// several, one parameter set is fitted to all of them.
+    /// columns of --columns, which may give a tip deflection in place of the root strain),
+    /// uniformly sampled at any rate, starting at any angle. With several, one parameter
+    /// set is fitted to all of them.
     #[arg(required = true, num_args = 1..)]
     logs: Vec<PathBuf>,
     /// The starting guess (preset, or --params FILE), mode count and payload.
@@ -26,7 +28,9 @@ pub struct CalibrateArgs {
     plant: PlantArgs,
     /// Which column holds what, and its unit, when the log is not in the project's format:
     /// `t=time_ms:ms,torque=tau:nm,theta=hub:deg,strain=eps:ue,mid=mid:ue` (units: s, ms,
-    /// us; nm, mnm; rad, deg; strain, ue; the others keep their default names).
+    /// us; nm, mnm; rad, deg; strain, ue; the others keep their default names). A rig with
+    /// a tip sensor instead of a root gauge maps `tip=COL:mm` (or `:m`): the free end's
+    /// deflection from the hub's line, fitted through the mode shapes at the tip.
     #[arg(long, value_name = "MAP", value_parser = Columns::parse)]
     columns: Option<Columns>,
     /// The windows, s from the log's first sample: move start, move end, end of settling
@@ -51,9 +55,10 @@ pub struct CalibrateArgs {
     /// cannot tell the two apart (docs/calibrate-your-rig.md).
     #[arg(long, value_name = "KG_M3")]
     known_density: Option<f64>,
-    /// The gauge's delay behind the hub, s: the log's strains are taken this much later
-    /// (0: as logged) [default: found in each log by correlating its root strain with the
-    /// starting parameters' on the logged hub, within 0.1 s, and applied from 3 ms].
+    /// The gauge's (or tip sensor's) delay behind the hub, s: the log's strains are taken
+    /// this much later (0: as logged) [default: found in each log by correlating its root
+    /// strain or tip deflection with the starting parameters' on the logged hub, within
+    /// 0.1 s, and applied from 3 ms].
     #[arg(long, value_name = "S", value_parser = strain_delay_value)]
     strain_delay: Option<f64>,
     /// With `--method split`: the encoder's counts per turn (after quadrature decoding), when
@@ -314,12 +319,14 @@ fn strain_delay_of(
     }
     if found < 0.0 {
         return (0.0, Some(format!(
-            "{file}: the root strain leads the model's (on the logged hub) by {:.3} s, which a gauge cannot; not applied (check that the strain and angle columns share a clock, or give --strain-delay)",
+            "{file}: the {} leads the model's (on the logged hub) by {:.3} s, which a sensor cannot; not applied (check that its column and the angle's share a clock, or give --strain-delay)",
+            log.sensor.name(),
             -found
         )));
     }
     (found, Some(format!(
-        "{file}: the root strain lags the model's (on the logged hub) by {found:.3} s (a gauge amplifier's filter, or a sample clock behind the encoder's); its strains are taken {found:.3} s later (give --strain-delay 0 to keep them as logged)"
+        "{file}: the {} lags the model's (on the logged hub) by {found:.3} s (a sensor amplifier's filter, or a sample clock behind the encoder's); its readings are taken {found:.3} s later (give --strain-delay 0 to keep them as logged)",
+        log.sensor.name()
     )))
 }
 
@@ -466,9 +473,14 @@ fn print_json(
         .zip(names)
         .map(|((e, f), name)| {
             let w = &e.windows;
-            json!({"log": name, "samples": e.log.t.len(), "tip_mass_kg": e.params(guess).tip_mass_kg,
+            let sensor = e.log.sensor;
+            let mut v = json!({"log": name, "samples": e.log.t.len(), "tip_mass_kg": e.params(guess).tip_mass_kg,
                    "windows_s": [w.start_s, w.end_s, w.settle_end_s],
-                   "rms_theta_err_rad": f.rms_theta_err_rad, "rms_strain_err_ue": f.rms_strain_err_ue})
+                   "beam_signal": sensor.name(),
+                   "rms_theta_err_rad": f.rms_theta_err_rad});
+            // The beam's error under its own unit's key: rms_strain_err_ue or rms_tip_err_mm.
+            v[format!("rms_{}_err_{}", sensor.key(), sensor.unit())] = json!(f.rms_beam_err);
+            v
         })
         .collect();
     let spread = found.spread.as_ref();
@@ -518,13 +530,15 @@ fn print_text(
     for ((e, f), name) in exps.iter().zip(&found.per_log).zip(names) {
         let w = &e.windows;
         println!(
-            "  {name}: {} samples, move {:.3}..{:.3} s, settling to {:.3} s; fit: hub {:.2e} rad, root strain {:.2} ue RMS",
+            "  {name}: {} samples, move {:.3}..{:.3} s, settling to {:.3} s; fit: hub {:.2e} rad, {} {:.3} {} RMS",
             e.log.t.len(),
             w.start_s,
             w.end_s,
             w.settle_end_s,
             f.rms_theta_err_rad,
-            f.rms_strain_err_ue
+            e.log.sensor.name(),
+            f.rms_beam_err,
+            e.log.sensor.unit()
         );
     }
     for s in &found.steps {
@@ -562,8 +576,16 @@ fn print_text(
 /// The split method's own figures: the beam's fit, the encoder, the torque balance.
 fn print_split(s: &SplitReport) {
     println!(
-        "  split, beam (hub prescribed): root strain RMS error {:.2} ue, gauge scale {:.4}",
-        s.beam_rms_strain_err_ue, s.sensors.gauge_scale
+        "  split, beam (hub prescribed): {} RMS error {:.3} {}, {} scale {:.4}",
+        s.beam_signal,
+        s.beam_rms_err,
+        s.beam_unit,
+        if s.beam_signal == BeamSensor::RootStrain.name() {
+            "gauge"
+        } else {
+            "sensor"
+        },
+        s.sensors.gauge_scale
     );
     let steps: Vec<String> = s
         .encoder_step_rad
@@ -622,9 +644,9 @@ fn print_spread(found: &Found, names: &[String]) {
             .iter()
             .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
             .collect();
-        let how = if split.is_some() {
+        let how = if let Some(s) = split {
             let [lo, hi] = beam_tools::identify::split::WINDOW_FACTORS;
-            format!("one-sigma (strain: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over {lo:.1} or {hi:.1} times the width, and from quantising its angle again at other phases of the encoder's step)")
+            format!("one-sigma ({}: Gauss-Newton, correlated residuals counted; balance: block bootstrap; both with the shift from smoothing the hub over {lo:.1} or {hi:.1} times the width, and from quantising its angle again at other phases of the encoder's step)", s.beam_signal)
         } else {
             "one-sigma (noise only, near the result)".into()
         };
@@ -871,9 +893,9 @@ fn log_fits<const N: usize>(
         .collect();
     let mut fits = beam_tools::identify::calibrate::log_fits::<N>(p, &seen)
         .context("the model broke down on a log")?;
-    // The strain error as the gauge reads it.
+    // The beam's error as its sensor reads it.
     fits.iter_mut()
-        .for_each(|f| f.rms_strain_err_ue *= sensors.gauge_scale);
+        .for_each(|f| f.rms_beam_err *= sensors.gauge_scale);
     Ok(fits)
 }
 

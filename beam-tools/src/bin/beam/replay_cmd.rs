@@ -84,10 +84,12 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
             report.hub_rms_err_deg
         );
         println!(
-            "  root strain (logged hub angle): RMS error {:.2} ue of {:.2} ue RMS ({:.1} %)",
-            report.strain_rms_err_ue,
-            report.strain_rms_measured_ue,
-            100.0 * report.strain_rel_err
+            "  {} (logged hub angle): RMS error {:.3} {unit} of {:.3} {unit} RMS ({:.1} %)",
+            report.beam_signal,
+            report.beam_rms_err,
+            report.beam_rms_measured,
+            100.0 * report.beam_rel_err,
+            unit = report.beam_unit
         );
         println!(
             "  vibration after the move: log {}, model {}{}",
