@@ -396,6 +396,7 @@ fn the_split_recovers_another_rig_and_predicts_a_held_out_move() {
         reference: Reference::Density(truth.density_kg_m3),
         fit_gauge_position: false,
         fit_offset: false,
+        fit_lag: false,
         evals: 600,
         encoder_step_rad: None,
     };
@@ -574,6 +575,7 @@ fn a_weighed_added_mass_fixes_the_level_without_a_known_density() {
         reference: Reference::TipMass,
         fit_gauge_position: false,
         fit_offset: false,
+        fit_lag: false,
         evals: 600,
         encoder_step_rad: None,
     };

@@ -273,6 +273,42 @@ pub fn strain_delay<const N: usize>(params: &BeamParams, log: &Log) -> Option<f6
     Some((best as f64 + vertex) * dt)
 }
 
+/// Below this a lag found in a log is taken as none: model error and noise move the
+/// correlation's peak by about a sample on logs with no lag, s.
+pub const STRAIN_DELAY_FLOOR_S: f64 = 0.003;
+
+/// The delay to take `log`'s beam signal back by, s ([`Log::strain_advanced`]), and what to
+/// say of it (naming `file`): `given` if given, else found by [`strain_delay`] on `params`.
+/// A lag within [`STRAIN_DELAY_FLOOR_S`] (or a sample and a half), or a signal that leads
+/// the model's, which no sensor can, is not taken out.
+pub fn sensor_lag<const N: usize>(
+    params: &BeamParams,
+    log: &Log,
+    file: &str,
+    given: Option<f64>,
+) -> (f64, Option<String>) {
+    if let Some(d) = given {
+        return (d, None);
+    }
+    let Some(found) = strain_delay::<N>(params, log) else {
+        return (0.0, None);
+    };
+    let dt = log.t[1] - log.t[0];
+    if found.abs() < STRAIN_DELAY_FLOOR_S.max(1.5 * dt) {
+        return (0.0, None);
+    }
+    let what = log.sensor.name();
+    if found < 0.0 {
+        return (0.0, Some(format!(
+            "{file}: the {what} leads the model's (on the logged hub) by {:.3} s, which a sensor cannot; not applied (check that its column and the angle's share a clock, or give --strain-delay)",
+            -found
+        )));
+    }
+    (found, Some(format!(
+        "{file}: the {what} lags the model's (on the logged hub) by {found:.3} s (a sensor amplifier's filter, or a sample clock behind the encoder's); its readings are taken {found:.3} s later (give --strain-delay 0 to keep them as logged)"
+    )))
+}
+
 /// The root strain of the beam driven by the logged hub motion, at each sample, with an
 /// `N`-mode model of `params`; `None` if the parameters are invalid or the model breaks
 /// down. The hub's rate and acceleration come from [`HubMotion::of`] with
@@ -425,14 +461,32 @@ pub fn prescribed_observed<const N: usize>(
     hub: &HubMotion,
     observer: Option<StrainObserver>,
 ) -> Option<Prescribed> {
+    let plant = beam_plant::<N>(params)?;
+    prescribed_on(&plant, log, hub, observer)
+}
+
+/// The plant of an `N`-mode model of `params`; `None` if they are not a beam.
+pub fn beam_plant<const N: usize>(params: &BeamParams) -> Option<Plant<N>> {
     let model = ModalModel::<N>::try_build(&Beam::try_build(*params).ok()?).ok()?;
-    let plant = Plant::new(model);
+    Some(Plant::new(model))
+}
+
+/// [`prescribed_observed`] on a plant already built (the model's build is about half of a
+/// replay's cost; a fit that drives several logs' beams with one parameter set builds it
+/// once).
+pub fn prescribed_on<const N: usize>(
+    plant: &Plant<N>,
+    log: &Log,
+    hub: &HubMotion,
+    observer: Option<StrainObserver>,
+) -> Option<Prescribed> {
+    let model = &plant.model;
     let dt = log.t[1] - log.t[0];
     let row = log.sensor.coef(&plant.model);
     // A gain that does not settle leaves the beam uncorrected.
     let gain = observer
         .as_ref()
-        .and_then(|obs| strain_kalman_gain(&plant, dt, obs, &row));
+        .and_then(|obs| strain_kalman_gain(plant, dt, obs, &row));
     let (omega, alpha) = (&hub.omega, &hub.alpha);
     let mut torque = Vec::with_capacity(log.t.len());
     let mut mid = Vec::with_capacity(log.t.len());
@@ -465,7 +519,7 @@ pub fn prescribed_observed<const N: usize>(
         } else {
             (w, a)
         };
-        (q, qd) = sample_step(&plant, q, qd, dt, |x| (w + x * (w1 - w), a + x * (a1 - a)));
+        (q, qd) = sample_step(plant, q, qd, dt, |x| (w + x * (w1 - w), a + x * (a1 - a)));
         if !q.iter().chain(qd.iter()).all(|x| x.is_finite()) {
             return None;
         }
@@ -474,7 +528,7 @@ pub fn prescribed_observed<const N: usize>(
         beam_signal: eps,
         mid_strain: mid,
         flex_torque_nm: torque,
-        beam_inertia_kgm2: model.mtt - params.jm_kgm2,
+        beam_inertia_kgm2: model.mtt - model.beam.params().jm_kgm2,
     })
 }
 

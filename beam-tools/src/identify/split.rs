@@ -36,11 +36,11 @@ use crate::identify::calibrate::{
 };
 use crate::identify::lsq::Normal;
 use crate::identify::replay::{
-    corrected, encoder_step, hub_window_s, prescribed, prescribed_observed, requantised, HubMotion,
-    StrainObserver, ENCODER_PHASES, HUB_WINDOW_S,
+    beam_plant, corrected, encoder_step, hub_window_s, prescribed_observed, prescribed_on,
+    requantised, HubMotion, StrainObserver, ENCODER_PHASES, HUB_WINDOW_S, MAX_STRAIN_DELAY_S,
 };
 use crate::io::params_file::Sensors;
-use host_tests::plant::COULOMB_SMOOTHING_RAD_S;
+use host_tests::plant::{Plant, COULOMB_SMOOTHING_RAD_S};
 use model_core::{Beam, BeamParams};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
@@ -112,6 +112,10 @@ pub struct SplitReport {
     pub beam_rms_err: f64,
     /// The unit of `beam_rms_err`: `ue` (root strain) or `mm` (tip deflection).
     pub beam_unit: &'static str,
+    /// How much later than the delay already taken out of the logs the beam sensor reads,
+    /// fitted with the beam ([`SplitOptions::fit_lag`]; 0 when not fitted), s. The caller
+    /// takes it out of the logs and calibrates again when it is more than a sample.
+    pub beam_lag_s: f64,
     /// Samples in the torque balance.
     pub balance_samples: usize,
     /// RMS of the balance's residual, N m.
@@ -204,6 +208,8 @@ struct BeamFit {
     gauge_scale: f64,
     /// RMS error of the fit, in the beam signal's display unit ([`BeamSensor::unit`]).
     rms_err: f64,
+    /// The sensor's lag beyond the logs' own, fitted with the beam, s (0 if not fitted).
+    lag_s: f64,
     /// Standard errors of ln EI/rho, ln damping, gauge position, gauge scale, ln rho (zero
     /// where held).
     std_err: [f64; 5],
@@ -246,6 +252,12 @@ pub struct SplitOptions {
     /// aluminium beam, 0.8 s; the swings back are short and fast, and the offset soaks up
     /// what the model misses there).
     pub fit_offset: bool,
+    /// Fit, in step 1's polish, how much later the beam sensor reads than the delay already
+    /// taken out of the logs ([`SplitReport::beam_lag_s`]). A lag found by correlation on
+    /// the starting model is off by what that model's frequency is, and the beam's fit then
+    /// takes the lag's error as a frequency error; fitted with the beam, the two part. Off
+    /// when the user gives the delay.
+    pub fit_lag: bool,
     /// COBYLA evaluations per local search of step 1.
     pub evals: usize,
     /// The encoder's step, rad, when the user gives it; `None`: found in each log's angle
@@ -375,20 +387,19 @@ fn rigid_body<const N: usize>(
             });
         }
     }
-    let ratio = beam.params.ei_nm2 / beam.params.density_kg_m3;
+    let rigid = || CalibrateError::Breakdown { step: "rigid" };
     let found = BeamParams {
         jm_kgm2: d[0],
-        density_kg_m3: d[1],
-        ei_nm2: ratio * d[1],
         viscous_nms: d[2].max(0.0),
         coulomb_nm: d[3].max(0.0),
-        ..balance.params
+        ..at_density::<N>(&beam.params, exps, d[1]).ok_or_else(rigid)?
     };
-    Beam::try_build(found).map_err(|_| CalibrateError::Breakdown { step: "rigid" })?;
     let sensors = Sensors {
         torque_scale: d[4],
         torque_offset_nm: d[5],
         gauge_scale: beam.gauge_scale,
+        // The logs' own delay is the caller's: it took it out before the split saw them.
+        strain_delay_s: 0.0,
     };
     let spread = balance_spread::<N>(inputs, views, &balance, &d, reference)?;
     let window_shift = window_shifts(&spread, beam, &balance.params, options);
@@ -412,6 +423,7 @@ fn rigid_body<const N: usize>(
             offset_fitted: balance.offset_fitted,
             beam_signal: exps[0].log.sensor.name(),
             beam_rms_err: beam.rms_err,
+            beam_lag_s: beam.lag_s,
             beam_unit: exps[0].log.sensor.unit(),
             balance_samples: balance.rows.len(),
             balance_rms_err_nm: check.balance_rms_err_nm,
@@ -650,15 +662,44 @@ impl Balance {
     }
 }
 
+/// Step 1's `beam` at another density: EI with it at step 1's ratio, and then, where a tip
+/// mass makes the frequencies depend on the density at a given ratio (the tip weighs less
+/// against a denser beam), scaled to hold step 1's first clamped mode on the first log's
+/// beam, which the logged signal fixed. At fixed masses the frequencies go with the square
+/// root of EI, so one step holds it exactly. `None` if that is not a beam.
+fn at_density<const N: usize>(
+    beam: &BeamParams,
+    exps: &[Experiment],
+    density: f64,
+) -> Option<BeamParams> {
+    let first_hz = |q: &BeamParams| -> Option<f64> {
+        let q = exps.first().map_or(*q, |e| e.params(q));
+        let model = model_core::ModalModel::<N>::try_build(&Beam::try_build(q).ok()?).ok()?;
+        Some(model.clamped_hz[0])
+    };
+    let mut p = BeamParams {
+        density_kg_m3: density,
+        ei_nm2: beam.ei_nm2 / beam.density_kg_m3 * density,
+        ..*beam
+    };
+    Beam::try_build(p).ok()?;
+    if let (Some(want), Some(now)) = (first_hz(beam), first_hz(&p)) {
+        p.ei_nm2 *= (want / now).powi(2);
+    }
+    Beam::try_build(p).ok().map(|_| p)
+}
+
 /// Step 2, the torque balance on `hubs`. R scales with the density at the ratio (without a
-/// tip mass, exactly; with one, nearly), so iterate on the density with the trusted torque.
+/// tip mass, exactly; with one, nearly), so iterate on the density with the trusted torque,
+/// EI following it to hold step 1's first mode ([`at_density`]; rescaled at the ratio, a
+/// balance 10 % off in density moved the lab link's first mode 2.8 % off what step 1
+/// found).
 fn solve_balance<const N: usize>(
     inputs: &BalanceInputs,
     hubs: &[HubMotion],
     beam: &BeamParams,
     options: &SplitOptions,
 ) -> Result<Balance, CalibrateError> {
-    let ratio = beam.ei_nm2 / beam.density_kg_m3;
     let mut p = *beam;
     let mut rows = vec![];
     let mut offset_fitted = false;
@@ -687,9 +728,7 @@ fn solve_balance<const N: usize>(
         if !(scale_now > 0.0) {
             return Err(unphysical);
         }
-        p.density_kg_m3 *= scale_now;
-        p.ei_nm2 = ratio * p.density_kg_m3;
-        Beam::try_build(p).map_err(|_| unphysical)?;
+        p = at_density::<N>(beam, inputs.exps, p.density_kg_m3 * scale_now).ok_or(unphysical)?;
     }
     Ok(Balance {
         params: p,
@@ -1047,7 +1086,7 @@ fn fit_beam<const N: usize>(
         0x5B17 ^ dims as u64,
         &|u: &[f64]| search.cost::<N>(u, hubs),
     );
-    let (params, jac) = search.polish::<N>(search.at(&u), hubs)?;
+    let (params, lag_s, jac) = search.polish::<N>(search.at(&u), hubs)?;
     let n = jac.model.len();
     let rms_err = (rss(&jac.model, &jac.measured, jac.scale) / n as f64).sqrt();
     let (std_err, corr, ln_ei_std_err) = search.intervals(&jac);
@@ -1057,7 +1096,7 @@ fn fit_beam<const N: usize>(
     // from the same Jacobian saw about half of the encoder's shift: it moves EI and the
     // damping together). Each shift by slot, and ln EI's.
     let shift_on = |hub: &[HubMotion]| -> Result<([f64; 5], f64), CalibrateError> {
-        let (q, q_jac) = search.polish::<N>(params, hub)?;
+        let (q, _, q_jac) = search.polish::<N>(params, hub)?;
         Ok((
             [
                 (q.ei_nm2 / q.density_kg_m3).ln() - (params.ei_nm2 / params.density_kg_m3).ln(),
@@ -1099,6 +1138,7 @@ fn fit_beam<const N: usize>(
         params,
         gauge_scale: scale,
         rms_err,
+        lag_s,
         std_err,
         corr,
         ln_ei_std_err,
@@ -1114,6 +1154,8 @@ fn fit_beam<const N: usize>(
 struct BeamSearch<'a> {
     exps: &'a [Experiment],
     g: &'a BeamParams,
+    /// Fit the sensor's lag in the polish ([`SplitOptions::fit_lag`]).
+    fit_lag: bool,
     /// The searched coordinates, by slot: 0 EI at the density, 1 damping, 2 the gauge's
     /// position, 4 the density and EI together (3, the gauge's scale, is closed form).
     kinds: Vec<usize>,
@@ -1127,6 +1169,26 @@ struct Jacobian {
     measured: Vec<f64>,
     scale: f64,
     cols: Vec<Vec<f64>>,
+}
+
+/// `v` read `samples` later (linearly between samples; before the first, the first: the
+/// beam at rest), as a sensor that lags by that much reads it.
+fn lagged(v: &[f64], samples: f64) -> Vec<f64> {
+    if samples == 0.0 {
+        return v.to_vec();
+    }
+    let last = v.len().saturating_sub(1) as f64;
+    (0..v.len())
+        .map(|k| {
+            let x = (k as f64 - samples).clamp(0.0, last);
+            let i = x.floor() as usize;
+            let f = x - i as f64;
+            match v.get(i + 1) {
+                Some(next) => v[i] + f * (next - v[i]),
+                None => v[i],
+            }
+        })
+        .collect()
 }
 
 /// With the best gauge scale s = pm/pp the residual is mm - pm^2/pp.
@@ -1152,7 +1214,12 @@ impl<'a> BeamSearch<'a> {
         if options.reference == Reference::TipMass {
             kinds.push(4);
         }
-        Self { exps, g, kinds }
+        Self {
+            exps,
+            g,
+            kinds,
+            fit_lag: options.fit_lag,
+        }
     }
 
     /// The search's range of a coordinate.
@@ -1238,29 +1305,52 @@ impl<'a> BeamSearch<'a> {
     }
 
     /// Model and measured beam signal (in its display unit, [`BeamSensor::unit`]) over
-    /// every log's window, the beam driven by `hubs`.
+    /// every log's window, the beam driven by `hubs`, the model's read `lag_s` late.
     fn strains<const N: usize>(
         &self,
         p: &BeamParams,
         hubs: &[HubMotion],
+        lag_s: f64,
     ) -> Option<(Vec<f64>, Vec<f64>)> {
-        let (mut model, mut measured) = (vec![], vec![]);
+        Some(self.windowed(&self.series::<N>(p, hubs)?, lag_s))
+    }
+
+    /// Each log's beam signal (SI) over the whole log, the beam of `p` (with the log's tip
+    /// mass) driven by `hubs`: one model built for the logs that share a tip mass.
+    fn series<const N: usize>(&self, p: &BeamParams, hubs: &[HubMotion]) -> Option<Vec<Vec<f64>>> {
+        let mut built: Option<(BeamParams, Plant<N>)> = None;
+        let mut out = Vec::with_capacity(self.exps.len());
         for (e, hub) in self.exps.iter().zip(hubs) {
-            let eps = prescribed::<N>(&e.params(p), &e.log, hub)?.beam_signal;
+            let q = e.params(p);
+            let plant = match &built {
+                Some((b, plant)) if *b == q => plant,
+                _ => &built.insert((q, beam_plant::<N>(&q)?)).1,
+            };
+            out.push(prescribed_on(plant, &e.log, hub, None)?.beam_signal);
+        }
+        Some(out)
+    }
+
+    /// [`Self::series`] read `lag_s` late, and the measured signal, over every log's
+    /// window, in the signal's display unit.
+    fn windowed(&self, series: &[Vec<f64>], lag_s: f64) -> (Vec<f64>, Vec<f64>) {
+        let (mut model, mut measured) = (vec![], vec![]);
+        for (e, eps) in self.exps.iter().zip(series) {
             let unit = e.log.sensor.display_scale();
-            for (k, m) in eps.iter().enumerate() {
+            let late = lagged(eps, lag_s / (e.log.t[1] - e.log.t[0]));
+            for (k, m) in late.iter().enumerate() {
                 if in_window(e, k) {
                     model.push(m * unit);
                     measured.push(e.log.beam_signal[k] * unit);
                 }
             }
         }
-        Some((model, measured))
+        (model, measured)
     }
 
     /// The search's cost at `u`: the log of the mean squared residual at the best scale.
     fn cost<const N: usize>(&self, u: &[f64], hubs: &[HubMotion]) -> f64 {
-        match self.strains::<N>(&self.at(u), hubs) {
+        match self.strains::<N>(&self.at(u), hubs, 0.0) {
             Some((m, y)) if !m.is_empty() => {
                 let (pm, pp, mm) = sums(&m, &y);
                 if pp > 0.0 {
@@ -1296,9 +1386,12 @@ impl<'a> BeamSearch<'a> {
         &self,
         q: &BeamParams,
         hubs: &[HubMotion],
+        lag_s: f64,
+        lag_column: bool,
     ) -> Result<Jacobian, CalibrateError> {
         let breakdown = || CalibrateError::Breakdown { step: "beam" };
-        let (m0, y) = self.strains::<N>(q, hubs).ok_or_else(breakdown)?;
+        let series = self.series::<N>(q, hubs).ok_or_else(breakdown)?;
+        let (m0, y) = self.windowed(&series, lag_s);
         let (pm, pp, _) = sums(&m0, &y);
         if !(pp > 0.0) {
             return Err(breakdown());
@@ -1312,15 +1405,31 @@ impl<'a> BeamSearch<'a> {
                 2 => qu.root_gauge_m - qd.root_gauge_m,
                 _ => 2.0 * h,
             };
-            let (Some((up, _)), Some((down, _))) =
-                (self.strains::<N>(&qu, hubs), self.strains::<N>(&qd, hubs))
-            else {
+            let (Some((up, _)), Some((down, _))) = (
+                self.strains::<N>(&qu, hubs, lag_s),
+                self.strains::<N>(&qd, hubs, lag_s),
+            ) else {
                 return Err(breakdown());
             };
             cols.push(
                 up.iter()
                     .zip(&down)
                     .map(|(a, b)| scale * (a - b) / dh)
+                    .collect(),
+            );
+        }
+        // The lag's column (in ms, so that its step is of the others' size), when fitted:
+        // between the coordinates' and the model's own.
+        if lag_column {
+            let h = 0.25 * (self.exps[0].log.t[1] - self.exps[0].log.t[0]);
+            let ((up, _), (down, _)) = (
+                self.windowed(&series, lag_s + h),
+                self.windowed(&series, lag_s - h),
+            );
+            cols.push(
+                up.iter()
+                    .zip(&down)
+                    .map(|(a, b)| scale * (a - b) / (2.0 * h * 1e3))
                     .collect(),
             );
         }
@@ -1336,12 +1445,18 @@ impl<'a> BeamSearch<'a> {
     /// Levenberg-Marquardt from `params` on `hubs`: the search stops short in a long valley
     /// (a tip mass's density against EI/rho correlate at -0.9999 on a smooth move), and the
     /// standard errors hold only at the minimum.
+    ///
+    /// With [`SplitOptions::fit_lag`], the sensor's lag beyond the logs' is a coordinate of
+    /// the polish too (from none, within +-[`MAX_STRAIN_DELAY_S`]); the returned Jacobian,
+    /// whose columns give the intervals, is at the fitted lag without the lag's column (the
+    /// intervals hold the lag as found).
     fn polish<const N: usize>(
         &self,
         mut params: BeamParams,
         hubs: &[HubMotion],
-    ) -> Result<(BeamParams, Jacobian), CalibrateError> {
-        let mut jac = self.jacobian::<N>(&params, hubs)?;
+    ) -> Result<(BeamParams, f64, Jacobian), CalibrateError> {
+        let mut lag = self.fit_lag.then_some(0.0);
+        let mut jac = self.jacobian::<N>(&params, hubs, 0.0, self.fit_lag)?;
         let mut lambda = 1e-3;
         for _ in 0..POLISH_ITERATIONS {
             let Jacobian {
@@ -1375,11 +1490,17 @@ impl<'a> BeamSearch<'a> {
                 for (&kind, &d) in self.kinds.iter().zip(&d) {
                     q = Self::step(&q, kind, d.clamp(-0.3, 0.3));
                 }
+                // The lag's step is in ms, after the coordinates'.
+                let lag_q = lag.map(|l| {
+                    (l + 1e-3 * d[self.kinds.len()].clamp(-5.0, 5.0))
+                        .clamp(-MAX_STRAIN_DELAY_S, MAX_STRAIN_DELAY_S)
+                });
                 if Beam::try_build(q).is_ok() {
-                    if let Some((m, yy)) = self.strains::<N>(&q, hubs) {
+                    if let Some((m, yy)) = self.strains::<N>(&q, hubs, lag_q.unwrap_or(0.0)) {
                         let (pm, pp, _) = sums(&m, &yy);
                         if pp > 0.0 && rss(&m, &yy, pm / pp) < before {
                             params = q;
+                            lag = lag_q;
                             improved = true;
                             lambda = (lambda / 10.0).max(1e-6);
                             break;
@@ -1391,13 +1512,17 @@ impl<'a> BeamSearch<'a> {
             if !improved {
                 break;
             }
-            jac = self.jacobian::<N>(&params, hubs)?;
+            jac = self.jacobian::<N>(&params, hubs, lag.unwrap_or(0.0), self.fit_lag)?;
             let after = rss(&jac.model, &jac.measured, jac.scale);
             if before - after < 1e-6 * before {
                 break;
             }
         }
-        Ok((params, jac))
+        let lag_s = lag.unwrap_or(0.0);
+        if lag.is_some() {
+            jac = self.jacobian::<N>(&params, hubs, lag_s, false)?;
+        }
+        Ok((params, lag_s, jac))
     }
 
     /// Gauss-Newton standard errors and correlations at the fit, by slot (zero where held),

@@ -17,8 +17,12 @@ pub struct Sensors {
     /// The logged torque with none applied, N m (a bias of the torque's measurement or
     /// estimate: the same in both directions of motion, unlike Coulomb friction).
     pub torque_offset_nm: f64,
-    /// The root gauge's reading over the strain the beam's curvature implies.
+    /// The root gauge's reading over the strain the beam's curvature implies (or a tip
+    /// sensor's over the deflection, for a log of the tip).
     pub gauge_scale: f64,
+    /// How long the beam's sensor (root gauge or tip sensor) reads behind the hub's encoder,
+    /// s: `beam replay` takes a log's readings this much later before it compares.
+    pub strain_delay_s: f64,
 }
 
 impl Default for Sensors {
@@ -27,6 +31,7 @@ impl Default for Sensors {
             torque_scale: 1.0,
             torque_offset_nm: 0.0,
             gauge_scale: 1.0,
+            strain_delay_s: 0.0,
         }
     }
 }
@@ -47,6 +52,12 @@ impl Sensors {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("sensors.{name}: {v} must be finite and > 0"));
             }
+        }
+        if !(0.0..=0.5).contains(&self.strain_delay_s) {
+            return Err(format!(
+                "sensors.strain_delay_s: {} must be within 0 to 0.5 s",
+                self.strain_delay_s
+            ));
         }
         if !self.torque_offset_nm.is_finite() {
             return Err(format!(
@@ -195,6 +206,7 @@ mod tests {
             torque_scale: 1.05,
             torque_offset_nm: -0.01,
             gauge_scale: 1.2,
+            strain_delay_s: 0.015,
         };
         std::fs::write(&path, render_with(&p, Some(&sensors), "test")).unwrap();
         assert_eq!(load_with_sensors(&path).unwrap(), (p, sensors));

@@ -7,7 +7,7 @@ use beam_tools::identify::calibrate::{
     Columns, Experiment, Log, LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS,
     REST_BEFORE_S,
 };
-use beam_tools::identify::replay::strain_delay;
+use beam_tools::identify::replay::{sensor_lag, STRAIN_DELAY_FLOOR_S};
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
 use beam_tools::io::params_file::Sensors;
 use clap::Args;
@@ -107,12 +107,24 @@ pub struct CalibrateArgs {
 pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     check(a)?;
     let guess = *crate::beam(&a.plant)?.params();
-    let mut read = experiments(a, &guess)?;
-    let mut found = identify(a, &read.exps, &guess)?;
-    // A delay found on the starting model is off by what its frequencies are: found again
-    // on the result, and if it moved by more than a sample, calibrated again with it.
-    if a.strain_delay.is_none() {
-        let again = experiments(a, &found.params)?;
+    let mut read = experiments(a, &guess, None)?;
+    let mut found = identify_joint(a, &read.exps, &guess, false)?;
+    // A delay found on the starting model is off by what its frequencies are. The split
+    // fits the rest of it with the beam: taken out of the logs as well, and calibrated
+    // again, if it is more than a sample. The paper's method finds it again on its result.
+    let beam_lag = found.split.as_ref().map(|s| s.beam_lag_s);
+    if let (None, Some(lag)) = (a.strain_delay, beam_lag) {
+        if read.delays.iter().any(|(_, dt)| lag.abs() > 1.5 * dt) {
+            // One sensor, one lag: the logs' mean and what the beam's fit added to it (the
+            // logs' own estimates scatter by a sample or so, which on a slow beam's large
+            // deflection is several times the sensor's noise).
+            let mean = read.delays.iter().map(|(d, _)| d).sum::<f64>() / read.delays.len() as f64;
+            let total = vec![(mean + lag).max(0.0); read.delays.len()];
+            read = experiments(a, &guess, Some(&total))?;
+            found = identify_joint(a, &read.exps, &guess, false)?;
+        }
+    } else if a.strain_delay.is_none() {
+        let again = experiments(a, &found.params, None)?;
         let moved = read
             .delays
             .iter()
@@ -120,8 +132,15 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             .any(|((d, dt), (e, _))| (d - e).abs() > 1.5 * dt);
         if moved {
             read = again;
-            found = identify(a, &read.exps, &guess)?;
+            found = identify_joint(a, &read.exps, &guess, false)?;
         }
+    }
+    found.each_log = each_log_alone(a, &read.exps, &guess);
+    // The sensor's delay, as taken out of the logs, goes with the rig's other instruments
+    // into the parameter file, for `beam replay` to take out of another log.
+    if let Some(split) = found.split.as_mut() {
+        let n = read.delays.len().max(1) as f64;
+        split.sensors.strain_delay_s = read.delays.iter().map(|(d, _)| d).sum::<f64>() / n;
     }
     let Read {
         exps, names, notes, ..
@@ -222,10 +241,16 @@ struct Read {
     delays: Vec<(f64, f64)>,
 }
 
-fn experiments(a: &CalibrateArgs, model: &BeamParams) -> anyhow::Result<Read> {
+/// `lags`: each log's delay to take out, fitted with the beam (else found on `model`, or
+/// `--strain-delay`).
+fn experiments(
+    a: &CalibrateArgs,
+    model: &BeamParams,
+    lags: Option<&[f64]>,
+) -> anyhow::Result<Read> {
     let columns = a.columns.clone().unwrap_or_default();
     let (mut exps, mut names, mut notes, mut delays) = (vec![], vec![], vec![], vec![]);
-    for (path, tip_mass_kg) in a.logs.iter().zip(tip_masses(a)?) {
+    for (i, (path, tip_mass_kg)) in a.logs.iter().zip(tip_masses(a)?).enumerate() {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).with_context(|| file.clone())?;
         let mut log = read_log_with(&text, &file, &columns)?;
@@ -244,7 +269,19 @@ fn experiments(a: &CalibrateArgs, model: &BeamParams) -> anyhow::Result<Read> {
             tip_mass_kg: tip_mass_kg.unwrap_or(model.tip_mass_kg),
             ..*model
         };
-        let (delay, note) = strain_delay_of(a, &beam, &log, &file);
+        let (delay, note) = match lags {
+            Some(lags) if lags[i] < STRAIN_DELAY_FLOOR_S => (0.0, None),
+            Some(lags) => (
+                lags[i],
+                Some(format!(
+                    "{file}: the {} lags the model's (on the logged hub) by {:.3} s, fitted with the beam (a sensor amplifier's filter, or a sample clock behind the encoder's); its readings are taken {:.3} s later (give --strain-delay 0 to keep them as logged)",
+                    log.sensor.name(),
+                    lags[i],
+                    lags[i]
+                )),
+            ),
+            None => strain_delay_of(a, &beam, &log, &file),
+        };
         notes.extend(note);
         delays.push((delay, log.t[1] - log.t[0]));
         if delay > 0.0 {
@@ -294,58 +331,35 @@ fn experiments(a: &CalibrateArgs, model: &BeamParams) -> anyhow::Result<Read> {
     })
 }
 
-/// Below this a strain delay found in a log is taken as none: model error and noise move
-/// the correlation's peak by about a sample on logs with no lag, s.
-const STRAIN_DELAY_FLOOR_S: f64 = 0.003;
-
-/// The delay to take the log's strains back by, s, and what to say of it: `--strain-delay`
-/// if given, else found by [`strain_delay`] on `guess` (a delay within
-/// [`STRAIN_DELAY_FLOOR_S`] or a strain that leads is not applied).
+/// The delay to take the log's beam signal back by, s, and what to say of it:
+/// `--strain-delay` if given, else found on `guess` ([`sensor_lag`]).
 fn strain_delay_of(
     a: &CalibrateArgs,
     guess: &BeamParams,
     log: &Log,
     file: &str,
 ) -> (f64, Option<String>) {
-    if let Some(d) = a.strain_delay {
-        return (d, None);
-    }
-    let Some(found) = with_modes!(a.plant.modes, strain_delay(guess, log)) else {
-        return (0.0, None);
-    };
-    let dt = log.t[1] - log.t[0];
-    if found.abs() < STRAIN_DELAY_FLOOR_S.max(1.5 * dt) {
-        return (0.0, None);
-    }
-    if found < 0.0 {
-        return (0.0, Some(format!(
-            "{file}: the {} leads the model's (on the logged hub) by {:.3} s, which a sensor cannot; not applied (check that its column and the angle's share a clock, or give --strain-delay)",
-            log.sensor.name(),
-            -found
-        )));
-    }
-    (found, Some(format!(
-        "{file}: the {} lags the model's (on the logged hub) by {found:.3} s (a sensor amplifier's filter, or a sample clock behind the encoder's); its readings are taken {found:.3} s later (give --strain-delay 0 to keep them as logged)",
-        log.sensor.name()
-    )))
+    with_modes!(a.plant.modes, sensor_lag(guess, log, file, a.strain_delay))
 }
 
-/// The calibration by the chosen method; with several logs, each log alone as well, so that
-/// logs that disagree are seen.
-fn identify(a: &CalibrateArgs, exps: &[Experiment], guess: &BeamParams) -> anyhow::Result<Found> {
-    let mut found = identify_joint(a, exps, guess, false)?;
-    if exps.len() > 1 {
-        found.each_log = exps
-            .iter()
-            .map(|e| {
-                let alone = identify_joint(a, std::slice::from_ref(e), guess, true)
-                    .map_err(|e| format!("{e:#}"))?;
-                let (errs, _) = alone.spread.ok_or("a parameter has no effect on it")?;
-                Ok(errs)
-            })
-            .collect();
+/// With several logs, each log calibrated alone as well (its parameters and intervals, or
+/// why not), so that logs that disagree are seen; with one, none.
+fn each_log_alone(
+    a: &CalibrateArgs,
+    exps: &[Experiment],
+    guess: &BeamParams,
+) -> Vec<Result<Vec<Uncertainty>, String>> {
+    if exps.len() < 2 {
+        return vec![];
     }
-    Ok(found)
+    exps.iter()
+        .map(|e| {
+            let alone = identify_joint(a, std::slice::from_ref(e), guess, true)
+                .map_err(|e| format!("{e:#}"))?;
+            let (errs, _) = alone.spread.ok_or("a parameter has no effect on it")?;
+            Ok(errs)
+        })
+        .collect()
 }
 
 /// One parameter set fitted to all of `exps` (`alone`: one of several, fitted by itself).
@@ -380,6 +394,7 @@ fn identify_joint(
         reference,
         fit_gauge_position: a.fit_gauge_position,
         fit_offset: a.torque_offset,
+        fit_lag: a.strain_delay.is_none(),
         evals: a.evals,
         encoder_step_rad: a.encoder_counts.map(|n| std::f64::consts::TAU / n as f64),
     };
@@ -921,7 +936,7 @@ fn traces_n<const N: usize>(
 }
 
 /// `--strain-delay S`: 0 to 0.5 s.
-fn strain_delay_value(s: &str) -> Result<f64, String> {
+pub fn strain_delay_value(s: &str) -> Result<f64, String> {
     let v: f64 = s.trim().parse().map_err(|e| format!("`{s}`: {e}"))?;
     if (0.0..=0.5).contains(&v) {
         Ok(v)

@@ -4,7 +4,7 @@
 use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::identify::calibrate::{find_windows, read_log_with, Columns, Windows};
-use beam_tools::identify::replay::{replay_report, traces, Traces};
+use beam_tools::identify::replay::{replay_report, sensor_lag, traces, Traces};
 use beam_tools::io::params_file::Sensors;
 use clap::Args;
 use std::path::PathBuf;
@@ -22,6 +22,12 @@ pub struct ReplayArgs {
     /// The windows, s from the log's first sample [default: found in the log].
     #[arg(long, value_name = "START,END,SETTLE_END", value_delimiter = ',')]
     windows: Option<Vec<f64>>,
+    /// The beam sensor's delay behind the hub, s, taken out before the comparison (0: as
+    /// logged) [default: the parameter file's `sensors.strain_delay_s` if it is above 0,
+    /// else found on the model as `beam calibrate` finds it and taken out from 3 ms, said
+    /// on stderr; the JSON's `strain_delay_s` is the one taken out].
+    #[arg(long, value_name = "S", value_parser = crate::calibrate_cmd::strain_delay_value)]
+    strain_delay: Option<f64>,
     /// Draw the model against the log: hub angle and rate (torque replay), root strain and,
     /// where logged, mid-span strain (hub prescribed), .png or .svg.
     #[arg(long, value_name = "FILE")]
@@ -50,7 +56,18 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
     };
     let file = a.log.display().to_string();
     let text = std::fs::read_to_string(&a.log).with_context(|| file.clone())?;
-    let log = read_log_with(&text, &file, &a.columns.clone().unwrap_or_default())?;
+    let mut log = read_log_with(&text, &file, &a.columns.clone().unwrap_or_default())?;
+    // The delay given, else the parameter file's (calibrate found it), else found here.
+    let given = a
+        .strain_delay
+        .or((sensors.strain_delay_s > 0.0).then_some(sensors.strain_delay_s));
+    let (delay, note) = with_modes!(a.plant.modes, sensor_lag(&params, &log, &file, given));
+    if let Some(note) = &note {
+        eprintln!("warning: {note}");
+    }
+    if delay > 0.0 {
+        log = log.strain_advanced(delay);
+    }
     let windows = match a.windows.as_deref() {
         Some([s, e, z]) => Windows::given(*s, *e, *z, &log),
         Some(_) => bail!("--windows takes three times: START,END,SETTLE_END"),
@@ -72,6 +89,7 @@ pub fn run(a: &ReplayArgs) -> anyhow::Result<()> {
     if a.json {
         let mut v = serde_json::to_value(&report)?;
         v["windows_s"] = serde_json::json!([windows.start_s, windows.end_s, windows.settle_end_s]);
+        v["strain_delay_s"] = serde_json::json!(delay);
         println!("{v}");
     } else {
         let hz = |f: Option<f64>| f.map_or("-".into(), |f| format!("{f:.3} Hz"));
