@@ -1540,30 +1540,36 @@ fn calibrate_fits_a_torque_it_cannot_place_in_either_direction_by_default() {
 
 #[test]
 fn calibrate_fits_the_beam_on_a_tip_sensor_where_there_is_no_root_gauge() {
-    // The walk-through's lab link (docs/lab-link, made by its make.sh from `beam simulate`
-    // on truth.toml): a 20 g tip mass, no strain gauge, a tip sensor read in mm to 0.05 mm
-    // with noise that lags the encoder by 15 ms, the torque in mN m, the hub in degrees, time
-    // in ms. One move, from the user's starting parameters (guess.toml: handbook steel, the
-    // hub's inertia 25 % high, no friction), with the default invocation and a column map.
+    // The walk-through of docs/calibrate-your-rig.md ("Your own rig, from a raw CSV"), its
+    // commands as written there (with --json to read the result): the lab link of
+    // docs/lab-link, made by its make.sh from `beam simulate` on truth.toml. A 20 g tip
+    // mass, no strain gauge, a tip sensor read in mm to 0.05 mm with noise that lags the
+    // encoder by 15 ms, the torque in mN m, the hub in degrees, time in ms. Two moves, from
+    // the user's starting parameters (guess.toml: handbook steel, the hub's inertia 25 %
+    // high, no friction), with the default invocation and a column map.
     let lab = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/lab-link");
     let file = |name: &str| lab.join(name).to_str().unwrap().to_string();
     let dir = scratch("tip-sensor");
-    let found_toml = dir.join("found.toml");
+    let found_toml = dir.join("lab.toml");
     let columns = "t=time_ms:ms,theta=hub_deg:deg,torque=torque_mNm:mnm,tip=tip_mm:mm";
     let v = json(&beam(&[
         "calibrate",
         &file("out.csv"),
+        &file("back.csv"),
         "--params",
         &file("guess.toml"),
         "--columns",
         columns,
         "--out",
         found_toml.to_str().unwrap(),
+        "--plot",
+        dir.join("lab.png").to_str().unwrap(),
         "--json",
     ]));
+    assert!(dir.join("lab.png").exists() && dir.join("lab-2.png").exists());
     assert_eq!(v["split"]["beam_signal"], "tip deflection", "{v}");
     assert_eq!(v["split"]["beam_unit"], "mm", "{v}");
-    assert!(v["logs"][0]["rms_tip_err_mm"].is_f64(), "{v}");
+    assert!(v["logs"][1]["rms_tip_err_mm"].is_f64(), "{v}");
     // The beam's fit (hub prescribed) within three times the sensor's noise and step
     // (0.03 mm and 0.05 mm: 0.033 mm RMS together).
     assert!(v["split"]["beam_rms_err"].as_f64().unwrap() < 0.1, "{v}");
@@ -1607,10 +1613,12 @@ fn calibrate_fits_the_beam_on_a_tip_sensor_where_there_is_no_root_gauge() {
     let r = json(&beam(&[
         "replay",
         &file("held-out.csv"),
-        "--columns",
-        columns,
         "--params",
         found_toml.to_str().unwrap(),
+        "--columns",
+        columns,
+        "--plot",
+        dir.join("held-out.png").to_str().unwrap(),
         "--csv",
         traces.to_str().unwrap(),
         "--json",

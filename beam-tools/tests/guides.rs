@@ -6,7 +6,8 @@
 //! A command is left out only for a reason this test names, and the list is printed:
 //! a synopsis (brackets, alternatives, `...`), a placeholder for the reader to fill in (an
 //! upper-case word such as `C`, `F`, `PORT`), a serial port, QEMU (the PIL tests in
-//! `tests/pil.rs` run those paths), or a capture only a board makes. `cargo fw` in a chain
+//! `tests/pil.rs` run those paths), a capture only a board makes, or the lab link's logs
+//! (`tests/cli.rs` runs the calibration walk-through on them and checks its results). `cargo fw` in a chain
 //! is CI's own step.
 
 use std::path::Path;
@@ -85,6 +86,12 @@ fn left_out(words: &[String]) -> Option<&'static str> {
     }
     if words.first().is_some_and(|w| w == "telemetry") {
         return Some("a capture from a board");
+    }
+    if words.iter().any(|w| w.contains("docs/lab-link/")) {
+        // Checked once, not twice: a calibration on two logs takes minutes in the test build.
+        return Some(
+            "the lab link's logs: tests/cli.rs (calibrate_fits_the_beam_on_a_tip_sensor) runs the walk-through's calibration and replay and checks what they find",
+        );
     }
     None
 }

@@ -158,7 +158,8 @@ pub enum CalibrateError {
     /// The torque balance came out unphysical: the logs do not determine the rigid body.
     #[error(
         "the torque balance gives Jm {jm:.3e} kg m^2, density {density:.4e} kg/m^3 and torque \
-         scale {torque_scale:.3} (each must be > 0): {cause}"
+         scale {torque_scale:.3} (each must be > 0, and the density within a factor of 3 of \
+         the starting one): {cause}"
     )]
     Unphysical {
         /// The hub's inertia found.
