@@ -114,7 +114,8 @@ pub struct SplitReport {
     pub beam_unit: &'static str,
     /// How much later than the delay already taken out of the logs the beam sensor reads,
     /// fitted with the beam ([`SplitOptions::fit_lag`]; 0 when not fitted), s. The caller
-    /// takes it out of the logs and calibrates again when it is more than a sample.
+    /// takes it out of the logs and calibrates again (the polish keeps none within a
+    /// sample and a half).
     pub beam_lag_s: f64,
     /// Samples in the torque balance.
     pub balance_samples: usize,
@@ -1764,6 +1765,52 @@ fn correlation(samples: &[[f64; 6]], a: usize, b: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn logs_of_two_sensors_or_a_gauge_position_on_a_tip_log_are_refused() {
+        // One fit pools the beam's residuals, which must share a unit; a tip log has no
+        // root gauge whose position could be fitted.
+        let t: Vec<f64> = (0..200).map(|k| k as f64 * 1e-3).collect();
+        let log = |sensor| Log {
+            torque: vec![0.0; t.len()],
+            theta: t.iter().map(|x| (x * 5.0).sin()).collect(),
+            beam_signal: vec![0.0; t.len()],
+            sensor,
+            mid_strain: None,
+            t: t.clone(),
+        };
+        let exp = |sensor| {
+            let l = log(sensor);
+            let w = crate::identify::calibrate::Windows::given(0.0, 0.1, 0.19, &l).unwrap();
+            Experiment::new(l, w)
+        };
+        let (gauge, tip) = (exp(BeamSensor::RootStrain), exp(BeamSensor::TipDeflection));
+        assert!(matches!(
+            one_sensor(&[gauge.clone(), tip.clone()]),
+            Err(CalibrateError::MixedSensors(
+                "root strain",
+                "tip deflection"
+            ))
+        ));
+        assert_eq!(
+            one_sensor(&[tip.clone(), tip.clone()]).unwrap(),
+            BeamSensor::TipDeflection
+        );
+        let options = SplitOptions {
+            reference: Reference::Torque,
+            fit_gauge_position: true,
+            fit_offset: false,
+            fit_lag: false,
+            evals: 10,
+            encoder_step_rad: None,
+        };
+        let refused = calibrate_split::<3>(&[tip], &model_core::BeamParams::aluminium(), &options);
+        assert!(
+            matches!(refused, Err(CalibrateError::SensorUnsupported(m)) if m.contains("gauge's position")),
+            "{:?}",
+            refused.map(|r| r.0)
+        );
+    }
 
     /// Balance rows made from a known rigid body and torque offset: intervals of 10 ms,
     /// alternating direction (or all one way), each accelerating the hub (so an offset left

@@ -111,7 +111,8 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     let mut found = identify_joint(a, &read.exps, &guess, false)?;
     // A delay found on the starting model is off by what its frequencies are. The split
     // fits the rest of it with the beam: taken out of the logs as well, and calibrated
-    // again, if it is more than a sample. The paper's method finds it again on its result.
+    // again, if it is more than a sample and a half (the split keeps none smaller). The
+    // paper's method finds it again on its result.
     let beam_lag = found.split.as_ref().map(|s| s.beam_lag_s);
     if let (None, Some(lag)) = (a.strain_delay, beam_lag) {
         if read.delays.iter().any(|(_, dt)| lag.abs() > 1.5 * dt) {
