@@ -507,17 +507,19 @@ impl Log {
         Ok(log)
     }
 
-    /// The log with its strains taken `delay_s` later (linearly between samples): what a
-    /// gauge and amplifier that lag the hub by `delay_s` would have read without the lag.
-    /// The last `delay_s` of the log, which has no strain to take, is dropped.
+    /// The log with its beam signal (and mid-span strain) taken `delay_s` later (linearly
+    /// between samples): what a sensor that lags the hub by `delay_s` would
+    /// have read without the lag. The last `delay_s` of the log, which has no reading to
+    /// take, is dropped.
     pub fn strain_advanced(&self, delay_s: f64) -> Log {
         let dt = self.t[1] - self.t[0];
-        let shift = delay_s / dt;
-        let whole = shift.floor().max(0.0) as usize;
-        let frac = shift - whole as f64;
-        let n = self.t.len().saturating_sub(whole + 1);
-        let at = |v: &[f64], k: usize| v[k + whole] + frac * (v[k + whole + 1] - v[k + whole]);
-        let shifted = |v: &[f64]| (0..n).map(|k| at(v, k)).collect::<Vec<f64>>();
+        let shift = (delay_s / dt).max(0.0);
+        let n = self.t.len().saturating_sub(shift.floor() as usize + 1);
+        let shifted = |v: &[f64]| {
+            let mut s = lagged(v, -shift);
+            s.truncate(n);
+            s
+        };
         Log {
             beam_signal: shifted(&self.beam_signal),
             mid_strain: self.mid_strain.as_deref().map(shifted),
@@ -550,6 +552,26 @@ impl Log {
         }
         false
     }
+}
+
+/// `v` read `samples` later (linearly between samples; before the first, the first: the
+/// beam at rest), as a sensor that lags by that much reads it.
+pub(crate) fn lagged(v: &[f64], samples: f64) -> Vec<f64> {
+    if samples == 0.0 {
+        return v.to_vec();
+    }
+    let last = v.len().saturating_sub(1) as f64;
+    (0..v.len())
+        .map(|k| {
+            let x = (k as f64 - samples).clamp(0.0, last);
+            let i = x.floor() as usize;
+            let f = x - i as f64;
+            match v.get(i + 1) {
+                Some(next) => v[i] + f * (next - v[i]),
+                None => v[i],
+            }
+        })
+        .collect()
 }
 
 /// Rest the calibration wants before each move, s: the split's start-up treatment takes the

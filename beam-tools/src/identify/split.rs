@@ -31,8 +31,8 @@
 
 use crate::design::optimize::Param;
 use crate::identify::calibrate::{
-    minimise, replay, AtBound, BeamSensor, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
-    UnphysicalCause,
+    lagged, minimise, replay, AtBound, BeamSensor, CalibrateError, Experiment, Log, Tradeoff,
+    Uncertainty, UnphysicalCause,
 };
 use crate::identify::lsq::Normal;
 use crate::identify::replay::{
@@ -1175,26 +1175,6 @@ struct Jacobian {
     measured: Vec<f64>,
     scale: f64,
     cols: Vec<Vec<f64>>,
-}
-
-/// `v` read `samples` later (linearly between samples; before the first, the first: the
-/// beam at rest), as a sensor that lags by that much reads it.
-fn lagged(v: &[f64], samples: f64) -> Vec<f64> {
-    if samples == 0.0 {
-        return v.to_vec();
-    }
-    let last = v.len().saturating_sub(1) as f64;
-    (0..v.len())
-        .map(|k| {
-            let x = (k as f64 - samples).clamp(0.0, last);
-            let i = x.floor() as usize;
-            let f = x - i as f64;
-            match v.get(i + 1) {
-                Some(next) => v[i] + f * (next - v[i]),
-                None => v[i],
-            }
-        })
-        .collect()
 }
 
 /// With the best gauge scale s = pm/pp the residual is mm - pm^2/pp.
