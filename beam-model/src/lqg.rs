@@ -24,11 +24,18 @@
 
 use crate::modal::{ModalModel, MAX_MODES};
 
-/// Most states of the observer: the hub angle and rate, and two per flexible mode.
-pub const MAX_STATES: usize = 2 + 2 * MAX_MODES;
+/// Flexible modes a design observes and controls. The first two: a design that also observes
+/// the higher modes tracks them on the model's frequencies, and a beam a few percent off
+/// those turns them unstable (spillover; with 1 % damping there is no margin to spare). Fixed,
+/// so that a drive's tick runs fixed loops over no more than it uses.
+pub const DESIGN_MODES: usize = 2;
 
-/// Working dimension: the states, the integral, and Van Loan's input column.
-const D: usize = MAX_STATES + 2;
+/// States of a design: the hub angle and rate, and two per flexible mode.
+pub const MAX_STATES: usize = 2 + 2 * DESIGN_MODES;
+
+/// Working dimension: the states of a model of up to [`MAX_MODES`] modes, the integral, and
+/// Van Loan's input column.
+const D: usize = 2 + 2 * MAX_MODES + 2;
 
 type Mat = [[f64; D]; D];
 
@@ -68,14 +75,17 @@ pub enum LqgError {
     Weights,
     /// A matrix was singular, or a Riccati iteration did not converge.
     Numerics,
+    /// The model has more modes than a design holds ([`DESIGN_MODES`]): reduce it first
+    /// ([`leading_modes`]).
+    Modes,
 }
 
 /// An LQG design in `f32`, for the tick: `x_pred = Ad x + Bd u_prev`, `x = x_pred + L (y -
 /// C x_pred)`, `u = ff - K [x - x_ref; z]`.
 ///
 /// The layout is fixed whatever the model's mode count, so the tick has no variable bounds:
-/// index 0 the hub angle, `1 + i` mode i's coordinate, `1 + MAX_MODES` the hub rate,
-/// `2 + MAX_MODES + i` mode i's rate; entries of modes past the model's are zero.
+/// index 0 the hub angle, `1 + i` mode i's coordinate, `1 + DESIGN_MODES` the hub rate,
+/// `2 + DESIGN_MODES + i` mode i's rate; entries of modes past the model's are zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LqgDesign {
     /// The sampled state matrix.
@@ -83,7 +93,7 @@ pub struct LqgDesign {
     /// The sampled input column, per N m.
     pub bd: [f32; MAX_STATES],
     /// Root strain per modal coordinate (the second output row is `[0, e, 0, 0]`).
-    pub strain_coef: [f32; MAX_MODES],
+    pub strain_coef: [f32; DESIGN_MODES],
     /// The Kalman gain, a column per output: hub angle, root strain.
     pub l: [[f32; 2]; MAX_STATES],
     /// The state-feedback gain, N m per state unit.
@@ -94,25 +104,25 @@ pub struct LqgDesign {
     /// clamped-hub dynamics `Mqq q'' + Cq q' + Kqq q = -h theta_r''`), sampled: state
     /// `[q_0..q_3, q_0'..q_3']`, `r+ = ref_ad r + ref_bd theta_r''`. A beam bent and swinging
     /// as the reference itself makes it is not an error for the feedback.
-    pub ref_ad: [[f32; 2 * MAX_MODES]; 2 * MAX_MODES],
+    pub ref_ad: [[f32; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
     /// The reference beam's input column, per rad/s^2.
-    pub ref_bd: [f32; 2 * MAX_MODES],
+    pub ref_bd: [f32; 2 * DESIGN_MODES],
     /// The feedforward that makes the hub follow the reference with the reference beam on
     /// it: `tau_ff = Jeff theta_r'' + ff_q . q + ff_dq . q' + c_v theta_r'`, where
     /// `ff_q = -h' Mqq^-1 Kqq` and `ff_dq = -h' Mqq^-1 Cq`.
-    pub ff_q: [f32; MAX_MODES],
+    pub ff_q: [f32; DESIGN_MODES],
     /// See `ff_q`.
-    pub ff_dq: [f32; MAX_MODES],
+    pub ff_dq: [f32; DESIGN_MODES],
     /// The centrifugal term of the reference beam, per (rad/s)^2 of hub rate and per tick:
     /// `ts Mqq^-1 S`, added to the reference beam's rates as `theta_r'^2 ref_s q`. At the
     /// speeds of a fast slew it changes the beam's stiffness by a fifth.
-    pub ref_s: [[f32; MAX_MODES]; MAX_MODES],
+    pub ref_s: [[f32; DESIGN_MODES]; DESIGN_MODES],
     /// The centrifugal term in the observer's prediction, per (rad/s)^2 of hub rate and per
     /// tick: `ts M^-1 [0; S]`, the hub's and the modes' accelerations from `w^2 S q`; row 0 is
     /// the hub's, row `1 + i` mode i's.
-    pub obs_s: [[f32; MAX_MODES]; 1 + MAX_MODES],
+    pub obs_s: [[f32; DESIGN_MODES]; 1 + DESIGN_MODES],
     /// The centrifugal term's feedforward, `h' Mqq^-1 S`: `tau_ff += theta_r'^2 ff_s . q`.
-    pub ff_s: [f32; MAX_MODES],
+    pub ff_s: [f32; DESIGN_MODES],
     /// The effective inertia Jeff = Mtt - h' Mqq^-1 h, kg m^2.
     pub jeff: f32,
     /// The viscous friction c_v, N m s/rad.
@@ -396,6 +406,9 @@ pub fn design<const N: usize>(
     ts_s: f64,
 ) -> Result<LqgDesign, LqgError> {
     weights.check()?;
+    if N > DESIGN_MODES {
+        return Err(LqgError::Modes);
+    }
     if !(noise.theta_rad > 0.0 && noise.strain > 0.0 && ts_s > 0.0 && ts_s.is_finite()) {
         return Err(LqgError::Weights);
     }
@@ -483,17 +496,17 @@ pub fn design<const N: usize>(
     let mut out = LqgDesign {
         ad: [[0.0; MAX_STATES]; MAX_STATES],
         bd: [0.0; MAX_STATES],
-        strain_coef: [0.0; MAX_MODES],
+        strain_coef: [0.0; DESIGN_MODES],
         l: [[0.0; 2]; MAX_STATES],
         k: [0.0; MAX_STATES],
         ki: kfull[nx] as f32,
-        ref_ad: [[0.0; 2 * MAX_MODES]; 2 * MAX_MODES],
-        ref_bd: [0.0; 2 * MAX_MODES],
-        ff_q: [0.0; MAX_MODES],
-        ff_dq: [0.0; MAX_MODES],
-        ref_s: [[0.0; MAX_MODES]; MAX_MODES],
-        obs_s: [[0.0; MAX_MODES]; 1 + MAX_MODES],
-        ff_s: [0.0; MAX_MODES],
+        ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
+        ref_bd: [0.0; 2 * DESIGN_MODES],
+        ff_q: [0.0; DESIGN_MODES],
+        ff_dq: [0.0; DESIGN_MODES],
+        ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
+        obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
+        ff_s: [0.0; DESIGN_MODES],
         jeff: model.jeff as f32,
         viscous: model.beam.params().viscous_nms as f32,
         torque_limit_nm: model.beam.params().torque_limit_nm as f32,
@@ -503,7 +516,7 @@ pub fn design<const N: usize>(
         if i <= N {
             i
         } else {
-            i - (1 + N) + (1 + MAX_MODES)
+            i - (1 + N) + (1 + DESIGN_MODES)
         }
     };
     for i in 0..nx {
@@ -538,7 +551,7 @@ pub fn design<const N: usize>(
         big[N + i][n2] = -(0..N).map(|l| mi[i][l] * model.h[l]).sum::<f64>() * ts_s;
     }
     let e_ref = expm(&big, n2 + 1);
-    let rat = |i: usize| if i < N { i } else { i - N + MAX_MODES };
+    let rat = |i: usize| if i < N { i } else { i - N + DESIGN_MODES };
     for i in 0..n2 {
         for j in 0..n2 {
             out.ref_ad[rat(i)][rat(j)] = e_ref[i][j] as f32;
@@ -546,7 +559,7 @@ pub fn design<const N: usize>(
         out.ref_bd[rat(i)] = e_ref[i][n2] as f32;
     }
     // h' Mqq^-1, then the feedforward rows.
-    let hm: [f64; MAX_MODES] = core::array::from_fn(|j| {
+    let hm: [f64; DESIGN_MODES] = core::array::from_fn(|j| {
         if j < N {
             (0..N).map(|l| model.h[l] * mi[l][j]).sum()
         } else {
@@ -659,7 +672,15 @@ mod tests {
             theta_rad: 1e-4,
             strain: 1e-6,
         };
-        let d = design(&m, &w, &noise, 1e-3).unwrap();
+        // A design holds the first two modes; the whole model is refused.
+        assert_eq!(design(&m, &w, &noise, 1e-3), Err(LqgError::Modes));
+        let d = design(
+            &leading_modes::<3, DESIGN_MODES>(&m).unwrap(),
+            &w,
+            &noise,
+            1e-3,
+        )
+        .unwrap();
         let nx = MAX_STATES;
         // Iterate the closed loop (A - B K) and the observer error (I - L C) A from a unit
         // start: both must decay.
@@ -680,7 +701,9 @@ mod tests {
             let pred: [f64; MAX_STATES] =
                 core::array::from_fn(|i| (0..nx).map(|j| d.ad[i][j] as f64 * e[j]).sum::<f64>());
             let y0 = pred[0];
-            let y1: f64 = (0..3).map(|i| d.strain_coef[i] as f64 * pred[1 + i]).sum();
+            let y1: f64 = (0..DESIGN_MODES)
+                .map(|i| d.strain_coef[i] as f64 * pred[1 + i])
+                .sum();
             e = core::array::from_fn(|i| pred[i] - d.l[i][0] as f64 * y0 - d.l[i][1] as f64 * y1);
         }
         let norm = |v: &[f64]| v.iter().map(|a| a.abs()).fold(0.0, f64::max);

@@ -10,7 +10,7 @@ use host_tests::plant::Plant;
 use host_tests::sim::{
     run_with, settings_for, DriveLoop, Motion, SimError, SimOptions, HAND_PICKED_LQG,
 };
-use model_core::lqg::MAX_STATES;
+use model_core::lqg::{DESIGN_MODES, MAX_STATES};
 use model_core::{
     Beam, BeamParams, ControlLaw, Controller, ControllerSettings, FaultFlags, Law, Limits,
     ModalModel, RawMeasurement, TorqueCommand,
@@ -82,10 +82,11 @@ fn errors(plant: BeamParams, nominal: BeamParams) -> (f64, f64, f64) {
     assert!(run.breakdown.is_none() && run.faults.is_empty());
     // Estimate k was made from the readings of sample k's state.
     let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+    // The estimate holds the observed modes, then the hub rate (beam_model::lqg's layout).
     let modes = |x: &[f32; MAX_STATES], coef: &[f64; 3]| -> f64 {
-        (0..3).map(|i| coef[i] * x[1 + i] as f64).sum()
+        (0..DESIGN_MODES).map(|i| coef[i] * x[1 + i] as f64).sum()
     };
-    let rate = 1 + model_core::modal::MAX_MODES;
+    let rate = 1 + DESIGN_MODES;
     let (mut mid, mut tip, mut omega) = ((vec![], vec![]), (vec![], vec![]), (vec![], vec![]));
     for (s, x) in run.samples.iter().zip(&rec.estimates) {
         mid.0.push(s.mid_strain);

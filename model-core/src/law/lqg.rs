@@ -9,12 +9,10 @@ use super::{gains, ControlLaw, Estimate, LawGains, LawPlant, LawState};
 use crate::beam::ParamError;
 #[cfg(feature = "observer")]
 use crate::beam::ParamErrorKind;
-#[cfg(feature = "observer")]
-use crate::modal::MAX_MODES;
 use crate::plant::PlantPoint;
 use crate::spline::RefPoint;
 #[cfg(feature = "observer")]
-use beam_model::lqg::{LqgDesign, LqgError, MAX_STATES};
+use beam_model::lqg::{LqgDesign, LqgError, DESIGN_MODES, MAX_STATES};
 
 gains! {
     /// LQG weights (`beam_model::lqg::LqgWeights` in `f32`): the state feedback with
@@ -34,8 +32,8 @@ gains! {
     }
 }
 
-/// Flexible modes the LQG law observes and controls: the first (see `LawPlant::lqg`).
-pub const LQG_MODES: usize = 2;
+/// Flexible modes the LQG law observes and controls: the first two (see `LawPlant::lqg`).
+pub const LQG_MODES: usize = beam_model::lqg::DESIGN_MODES;
 
 /// The noise the LQG observer assumes on the root strain gauge, strain: a bridge amplifier's
 /// typical floor (0.5 ue), well above a 24-bit converter's quantisation.
@@ -49,7 +47,7 @@ pub struct ObserverState {
     /// The observer's state estimate, in [`LqgDesign`]'s layout.
     pub estimate: [f32; MAX_STATES],
     /// The reference beam's modes and rates, see [`LqgDesign::ref_ad`].
-    pub reference: [f32; 2 * MAX_MODES],
+    pub reference: [f32; 2 * DESIGN_MODES],
     /// The torque the drive applied last tick, within the limit, N m.
     pub applied_nm: f32,
     /// The observer has been started from the measured hub angle.
@@ -61,17 +59,17 @@ pub struct ObserverState {
 pub(super) const NO_OBSERVER: LqgDesign = LqgDesign {
     ad: [[0.0; MAX_STATES]; MAX_STATES],
     bd: [0.0; MAX_STATES],
-    strain_coef: [0.0; MAX_MODES],
+    strain_coef: [0.0; DESIGN_MODES],
     l: [[0.0; 2]; MAX_STATES],
     k: [0.0; MAX_STATES],
     ki: 0.0,
-    ref_ad: [[0.0; 2 * MAX_MODES]; 2 * MAX_MODES],
-    ref_bd: [0.0; 2 * MAX_MODES],
-    ff_q: [0.0; MAX_MODES],
-    ff_dq: [0.0; MAX_MODES],
-    ref_s: [[0.0; MAX_MODES]; MAX_MODES],
-    obs_s: [[0.0; MAX_MODES]; 1 + MAX_MODES],
-    ff_s: [0.0; MAX_MODES],
+    ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
+    ref_bd: [0.0; 2 * DESIGN_MODES],
+    ff_q: [0.0; DESIGN_MODES],
+    ff_dq: [0.0; DESIGN_MODES],
+    ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
+    obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
+    ff_s: [0.0; DESIGN_MODES],
     jeff: 0.0,
     viscous: 0.0,
     torque_limit_nm: 0.0,
@@ -118,7 +116,7 @@ impl LawGains for LqgGains {
                     field: "lqg",
                     kind: match e {
                         LqgError::Weights => ParamErrorKind::OutOfRange,
-                        LqgError::Numerics => ParamErrorKind::NoDesign,
+                        LqgError::Numerics | LqgError::Modes => ParamErrorKind::NoDesign,
                     },
                 })?;
             // |Ki z| within the limit: the integral cannot wind up past what it can use.
@@ -183,7 +181,7 @@ fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState,
 
 /// Index of the hub rate in [`LqgDesign`]'s layout.
 #[cfg(feature = "observer")]
-pub(super) const RATE: usize = 1 + MAX_MODES;
+pub(super) const RATE: usize = 1 + DESIGN_MODES;
 
 /// The observer's tick, shared by the laws on it: its predict (with the torque applied last
 /// tick) and update (with the hub angle and root strain), the reference beam's step, and
@@ -205,7 +203,7 @@ pub(super) fn observe(
         // From rest at the measured angle: a move starts with the hub still.
         state.estimate = [0.0; MAX_STATES];
         state.estimate[0] = x.theta;
-        state.reference = [0.0; 2 * MAX_MODES];
+        state.reference = [0.0; 2 * DESIGN_MODES];
         state.applied_nm = 0.0;
         state.observing = true;
     }
@@ -243,12 +241,12 @@ pub(super) fn observe(
         .iter()
         .zip(&d.ff_dq)
         .zip(&d.ff_s)
-        .zip(rb.iter().zip(&rb[MAX_MODES..]))
+        .zip(rb.iter().zip(&rb[DESIGN_MODES..]))
     {
         u += fq * q + fdq * dq + w2 * fs * q;
     }
     let mut sigma = 0.0f32;
-    let mut next = [0.0f32; 2 * MAX_MODES];
+    let mut next = [0.0f32; 2 * DESIGN_MODES];
     for (nz, (row, b)) in next.iter_mut().zip(d.ref_ad.iter().zip(&d.ref_bd)) {
         let mut acc = b * r.acc;
         for (a, z) in row.iter().zip(rb) {
@@ -256,7 +254,7 @@ pub(super) fn observe(
         }
         *nz = acc;
     }
-    for (nz, row) in next[MAX_MODES..].iter_mut().zip(&d.ref_s) {
+    for (nz, row) in next[DESIGN_MODES..].iter_mut().zip(&d.ref_s) {
         let mut acc = 0.0;
         for (a, q) in row.iter().zip(rb) {
             acc += a * q;
@@ -277,7 +275,7 @@ pub(super) fn observe(
         } else if i == RATE {
             r.vel
         } else {
-            state.reference[i - 1 - RATE + MAX_MODES]
+            state.reference[i - 1 - RATE + DESIGN_MODES]
         };
         let feedback = d.k[i] * (*xi - reference);
         u -= feedback;
@@ -288,7 +286,7 @@ pub(super) fn observe(
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
     // it there too; the law cannot tell that pause from the end.)
     state.reference = if r.vel == 0.0 && r.acc == 0.0 {
-        [0.0; 2 * MAX_MODES]
+        [0.0; 2 * DESIGN_MODES]
     } else {
         next
     };
