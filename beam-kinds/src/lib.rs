@@ -441,6 +441,12 @@ pub const fn same_settings(a: &[Setting], b: &[Setting]) -> bool {
 }
 
 impl LawKind {
+    /// The law runs on a state observer of the beam's modes (lqg, smc-modal), whose design a
+    /// drive carries compiled in, made on the host.
+    pub const fn has_observer(self) -> bool {
+        matches!(self, LawKind::Lqg | LawKind::SmcModal)
+    }
+
     /// The law's gains, in the optimiser's search order: the one definition of their names,
     /// units, sign rules and default search ranges, which the gain table's validation, the
     /// law's own validation in model-core and the optimiser read.

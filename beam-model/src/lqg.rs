@@ -131,6 +131,68 @@ pub struct LqgDesign {
     pub torque_limit_nm: f32,
 }
 
+impl LqgDesign {
+    /// All zero: the design slot of a law without an observer.
+    pub const ZERO: Self = LqgDesign {
+        ad: [[0.0; MAX_STATES]; MAX_STATES],
+        bd: [0.0; MAX_STATES],
+        strain_coef: [0.0; DESIGN_MODES],
+        l: [[0.0; 2]; MAX_STATES],
+        k: [0.0; MAX_STATES],
+        ki: 0.0,
+        ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
+        ref_bd: [0.0; 2 * DESIGN_MODES],
+        ff_q: [0.0; DESIGN_MODES],
+        ff_dq: [0.0; DESIGN_MODES],
+        ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
+        obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
+        ff_s: [0.0; DESIGN_MODES],
+        jeff: 0.0,
+        viscous: 0.0,
+        torque_limit_nm: 0.0,
+    };
+
+    /// `self + (other - self) f`, entry by entry: the gain scheduling a drive does between
+    /// designs made at two payloads (the modal coordinates are the clamped beam's assumed
+    /// modes, the same functions at every payload, so the entries mean the same in both).
+    pub fn mix(&self, other: &Self, f: f32) -> Self {
+        let m = |a: f32, b: f32| a + (b - a) * f;
+        fn each<const R: usize>(
+            a: &[f32; R],
+            b: &[f32; R],
+            m: impl Fn(f32, f32) -> f32,
+        ) -> [f32; R] {
+            core::array::from_fn(|i| m(a[i], b[i]))
+        }
+        fn rows<const R: usize, const C: usize>(
+            a: &[[f32; C]; R],
+            b: &[[f32; C]; R],
+            m: impl Fn(f32, f32) -> f32 + Copy,
+        ) -> [[f32; C]; R] {
+            core::array::from_fn(|i| each(&a[i], &b[i], m))
+        }
+        let (a, b) = (self, other);
+        LqgDesign {
+            ad: rows(&a.ad, &b.ad, m),
+            bd: each(&a.bd, &b.bd, m),
+            strain_coef: each(&a.strain_coef, &b.strain_coef, m),
+            l: rows(&a.l, &b.l, m),
+            k: each(&a.k, &b.k, m),
+            ki: m(a.ki, b.ki),
+            ref_ad: rows(&a.ref_ad, &b.ref_ad, m),
+            ref_bd: each(&a.ref_bd, &b.ref_bd, m),
+            ff_q: each(&a.ff_q, &b.ff_q, m),
+            ff_dq: each(&a.ff_dq, &b.ff_dq, m),
+            ref_s: rows(&a.ref_s, &b.ref_s, m),
+            obs_s: rows(&a.obs_s, &b.obs_s, m),
+            ff_s: each(&a.ff_s, &b.ff_s, m),
+            jeff: m(a.jeff, b.jeff),
+            viscous: m(a.viscous, b.viscous),
+            torque_limit_nm: m(a.torque_limit_nm, b.torque_limit_nm),
+        }
+    }
+}
+
 fn identity(n: usize) -> Mat {
     let mut a = ZERO;
     for (i, row) in a.iter_mut().enumerate().take(n) {

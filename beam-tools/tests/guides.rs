@@ -121,7 +121,7 @@ fn shell_words(text: &str) -> Vec<String> {
 #[test]
 fn the_extraction_finds_spans_fences_and_chains() {
     let text = "Run `cargo beam simulate --csv a.csv &&\ncargo beam replay a.csv` then\n\
-                ```sh\ncargo fw && cargo beam pil   # the PIL\ncargo beam model --json\n```\n\
+                ```sh\ncargo pil-fw && cargo beam pil   # the PIL\ncargo beam model --json\n```\n\
                 and `cargo test`.";
     let found: Vec<String> = commands("g", text).into_iter().map(|f| f.text).collect();
     assert_eq!(

@@ -7,7 +7,9 @@
 //! (`rows_for`), scheduled on the payload. Nothing of the model is computed here.
 
 use model_core::commands::{CommandedController, Commander, SetupError};
-use model_core::gains::{rows_for, schedule_shaper, GainRow, DRIVE, PLANT};
+use model_core::gains::{
+    rows_for, schedule_design, schedule_shaper, DesignRow, DesignedPlant, GainRow, DRIVE, PLANT,
+};
 use model_core::shaper::shaped_quintic;
 use model_core::{
     ConfigError, ControlLaw, Controller, ControllerSettings, Law, LawKind, ParamError, ShaperError,
@@ -23,6 +25,7 @@ pub const PAYLOAD_KG: f32 = DRIVE.payload_kg;
 /// The control law the drive runs (the table's `[drive]`).
 pub const CONTROLLER: LawKind = DRIVE.law;
 include!(concat!(env!("OUT_DIR"), "/button_moves.rs"));
+include!(concat!(env!("OUT_DIR"), "/observer_designs.rs"));
 /// The table's rows of [`CONTROLLER`]: the only rows the board links (a drive cannot change
 /// its law).
 pub const ROWS: &[GainRow] = rows_for(CONTROLLER);
@@ -31,6 +34,22 @@ pub const ROWS: &[GainRow] = rows_for(CONTROLLER);
 /// for PD without rows, the baseline gains. `None` if the table has no row for an SMC.
 pub fn compiled_law(kind: LawKind, payload_kg: f32) -> Option<Law> {
     model_core::gains::scheduled_law(rows_for(kind), kind, payload_kg)
+}
+
+/// The designs of [`CONTROLLER`]'s rows: the only designs the board links (none unless it
+/// runs an observer law).
+pub const DESIGNS: &[DesignRow] = designs_for(CONTROLLER);
+
+/// The compiled plant at `payload_kg` with, for an observer law `kind`, its design scheduled
+/// on the payload from `rows`, the designs build.rs made at the law's rows ([`designs_for`]);
+/// `None` outside the plant's payloads. Without the `observer` feature an observer law is
+/// still refused when it is built.
+pub fn designed_plant(kind: LawKind, payload_kg: f32, rows: &[DesignRow]) -> Option<DesignedPlant> {
+    let point = PLANT.at(payload_kg as f64)?;
+    Some(DesignedPlant {
+        point,
+        design: schedule_design(rows, kind, payload_kg),
+    })
 }
 
 /// The paper's slew: -90 deg to +90 deg in 0.35 s, and back (model-core's `paper_slew`).
@@ -86,7 +105,7 @@ pub enum BuildError {
 /// The drive's controller ([`CONTROLLER`] at [`PAYLOAD_KG`]), idle, armed with the first move.
 pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let [first, _] = sequence()?;
-    controller_with(CONTROLLER, PAYLOAD_KG, first)
+    controller_with(CONTROLLER, PAYLOAD_KG, DESIGNS, first)
 }
 
 /// The controller for the compiled plant carrying `payload_kg`, running `kind`, armed with
@@ -96,17 +115,31 @@ pub fn build_controller_for(
     payload_kg: f32,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let [first, _] = sequence_for(kind, payload_kg)?;
-    controller_with(kind, payload_kg, first)
+    controller_with(kind, payload_kg, designs_for(kind), first)
 }
 
 fn controller_with(
     kind: LawKind,
     payload_kg: f32,
+    designs: &[DesignRow],
     first: Spline<MOVE_KNOTS>,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
-    let plant = PLANT.at(payload_kg as f64).ok_or(BuildError::Payload)?;
     let gains = compiled_law(kind, payload_kg).ok_or(BuildError::NoGains)?;
-    let law = ControlLaw::try_build(gains, plant).map_err(BuildError::Gains)?;
+    // With the observer laws, on the plant with their designs; without, on the plant alone
+    // (an observer law is refused), so the board links nothing of them.
+    #[cfg(feature = "observer")]
+    let (law, plant) = {
+        let plant = designed_plant(kind, payload_kg, designs).ok_or(BuildError::Payload)?;
+        let law = ControlLaw::try_build(gains, plant).map_err(BuildError::Gains)?;
+        (law, plant.point)
+    };
+    #[cfg(not(feature = "observer"))]
+    let (law, plant) = {
+        let _ = designs;
+        let plant = PLANT.at(payload_kg as f64).ok_or(BuildError::Payload)?;
+        let law = ControlLaw::try_build(gains, plant).map_err(BuildError::Gains)?;
+        (law, plant)
+    };
     let settings = ControllerSettings {
         theta_home_rad: SLEW_FROM_RAD,
         torque_limit_nm: plant.torque_limit_nm as f32,

@@ -81,6 +81,65 @@ impl<const N: usize> LawPlant for &ModalModel<N> {
     }
 }
 
+/// An observer law's design made on the host at one row of the table (for a drive, which
+/// cannot solve the design's Riccati equations): the law, the row's payload and the design
+/// for the row's gains.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DesignRow {
+    /// The law (lqg or smc-modal).
+    pub kind: LawKind,
+    /// The row's payload, kg.
+    pub payload_kg: f32,
+    /// The design for the row's gains on the plant carrying that payload.
+    pub design: LqgDesign,
+}
+
+/// The design of law `kind` at `payload_kg` from `rows`, mixed between the neighbouring
+/// rows as [`schedule`] mixes their gains (the same fraction), the end rows held outside
+/// their range; `None` without a row of that law.
+pub fn schedule_design(rows: &[DesignRow], kind: LawKind, payload_kg: f32) -> Option<LqgDesign> {
+    let mut rows = rows.iter().filter(|r| r.kind == kind);
+    let first = rows.next()?;
+    if !(payload_kg > first.payload_kg) {
+        return Some(first.design);
+    }
+    let mut below = first;
+    for above in rows {
+        if payload_kg == above.payload_kg {
+            // At a row, its design exactly (a mix with weight 1 can round apart from it).
+            return Some(above.design);
+        }
+        if payload_kg < above.payload_kg {
+            let f = (payload_kg - below.payload_kg) / (above.payload_kg - below.payload_kg);
+            return Some(below.design.mix(&above.design, f));
+        }
+        below = above;
+    }
+    Some(below.design)
+}
+
+/// A drive's compiled plant at its payload with, for an observer law, the design made on the
+/// host ([`schedule_design`]): what a drive builds an lqg or smc-modal law on. The design
+/// must be the one for the gains the law is built with (the table's, scheduled on the same
+/// payload); it is not checked against them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DesignedPlant {
+    /// The plant at the payload.
+    pub point: PlantPoint,
+    /// The observer law's design, if any.
+    pub design: Option<LqgDesign>,
+}
+
+impl LawPlant for DesignedPlant {
+    fn point(&self) -> PlantPoint {
+        self.point
+    }
+
+    fn lqg(&self, _: &LqgGains, _: f64) -> Option<Result<LqgDesign, LqgError>> {
+        self.design.map(Ok)
+    }
+}
+
 /// The gains for law `kind` at `payload_kg`, from `table`; `None` if the table has no row for
 /// that law. A NaN payload takes the lightest row.
 pub fn schedule(table: &[GainRow], kind: LawKind, payload_kg: f32) -> Option<Law> {
@@ -193,6 +252,41 @@ mod tests {
         );
         assert_eq!(schedule(&TABLE, LawKind::Pd, 0.3).unwrap(), TABLE[2].law);
         assert_eq!(schedule(&TABLE, LawKind::SmcStrain, 0.0), None);
+    }
+
+    #[test]
+    fn designs_are_mixed_between_points_exact_at_them_and_held_past_the_ends() {
+        let mut a = LqgDesign::ZERO;
+        let mut b = a;
+        a.jeff = 0.1;
+        b.jeff = 0.3;
+        a.ad[1][2] = -1.0;
+        b.ad[1][2] = 0.7;
+        let rows = [
+            DesignRow {
+                kind: LawKind::Lqg,
+                payload_kg: 0.0,
+                design: a,
+            },
+            DesignRow {
+                kind: LawKind::SmcModal,
+                payload_kg: 0.01,
+                design: b,
+            },
+            DesignRow {
+                kind: LawKind::Lqg,
+                payload_kg: 0.02,
+                design: b,
+            },
+        ];
+        let mid = schedule_design(&rows, LawKind::Lqg, 0.005).unwrap();
+        assert!((mid.jeff - 0.15).abs() < 1e-7 && (mid.ad[1][2] + 0.575).abs() < 1e-7);
+        assert_eq!(schedule_design(&rows, LawKind::Lqg, 0.02), Some(b));
+        assert_eq!(schedule_design(&rows, LawKind::Lqg, 0.0), Some(a));
+        assert_eq!(schedule_design(&rows, LawKind::Lqg, -1.0), Some(a));
+        assert_eq!(schedule_design(&rows, LawKind::Lqg, 1.0), Some(b));
+        assert_eq!(schedule_design(&rows, LawKind::Lqg, f32::NAN), Some(a));
+        assert_eq!(schedule_design(&rows, LawKind::Pd, 0.0), None);
     }
 
     #[test]

@@ -430,6 +430,12 @@ impl ControlLaw {
         &self.law
     }
 
+    /// The observer's design the law was built with (lqg, smc-modal); `None` for the others.
+    #[cfg(feature = "observer")]
+    pub fn observer_design(&self) -> Option<&LqgDesign> {
+        self.law.kind().has_observer().then_some(&self.observer)
+    }
+
     /// The unsaturated torque command for the estimate `x` and reference `r`, N m, advancing
     /// the law's own state (the integral of smc-i) by one tick of `ts_s`. May be non-finite
     /// only if `x` or `r` is; the caller guards and saturates. Always inlined: with two

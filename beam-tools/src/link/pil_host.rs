@@ -29,7 +29,8 @@ use std::sync::atomic::{AtomicU32, Ordering};
 /// How to run the PIL drive.
 #[derive(Clone, Debug)]
 pub struct PilConfig {
-    /// The PIL firmware (`cargo fw` builds it as `.../release/pil`).
+    /// The PIL firmware (`cargo pil-fw` builds `.../release/pil`, `cargo pil-fw-observer`
+    /// `.../release/pil-observer`; see `paths::pil_elf`).
     pub elf: PathBuf,
     /// The QEMU binary.
     pub qemu: String,
@@ -373,10 +374,10 @@ static RUN_ID: AtomicU32 = AtomicU32::new(0);
 #[derive(Debug, thiserror::Error)]
 pub enum PilError {
     /// The PIL firmware is not there.
-    #[error("{}: not found (build the PIL firmware with `cargo fw`)", .0.display())]
+    #[error("{}: not found (build the PIL firmware: `cargo pil-fw`, or `cargo pil-fw-observer` for lqg and smc-modal)", .0.display())]
     NoFirmware(PathBuf),
     /// The PIL firmware could not be read.
-    #[error("{}: cannot read the PIL firmware (build it with `cargo fw`)", .path.display())]
+    #[error("{}: cannot read the PIL firmware (build it: `cargo pil-fw`, or `cargo pil-fw-observer` for lqg and smc-modal)", .path.display())]
     ReadFirmware {
         /// The ELF.
         path: PathBuf,
@@ -712,12 +713,18 @@ pub mod paths {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
     }
 
-    /// The PIL firmware `cargo fw` builds.
-    pub fn pil_elf() -> PathBuf {
+    /// The PIL firmware that runs law `kind`: `pil` (`cargo pil-fw`), or for an observer
+    /// law `pil-observer` (`cargo pil-fw-observer`).
+    pub fn pil_elf(kind: model_core::LawKind) -> PathBuf {
         let target = std::env::var_os("CARGO_TARGET_DIR")
             .map(PathBuf::from)
             .unwrap_or_else(|| workspace().join("target"));
-        target.join("thumbv7em-none-eabihf/release/pil")
+        let name = if kind.has_observer() {
+            "pil-observer"
+        } else {
+            "pil"
+        };
+        target.join("thumbv7em-none-eabihf/release").join(name)
     }
 
     /// The instruction-count plugin's source and build script.

@@ -56,24 +56,7 @@ pub struct ObserverState {
 
 /// An all-zero design, for the laws without an observer.
 #[cfg(feature = "observer")]
-pub(super) const NO_OBSERVER: LqgDesign = LqgDesign {
-    ad: [[0.0; MAX_STATES]; MAX_STATES],
-    bd: [0.0; MAX_STATES],
-    strain_coef: [0.0; DESIGN_MODES],
-    l: [[0.0; 2]; MAX_STATES],
-    k: [0.0; MAX_STATES],
-    ki: 0.0,
-    ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
-    ref_bd: [0.0; 2 * DESIGN_MODES],
-    ff_q: [0.0; DESIGN_MODES],
-    ff_dq: [0.0; DESIGN_MODES],
-    ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
-    obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
-    ff_s: [0.0; DESIGN_MODES],
-    jeff: 0.0,
-    viscous: 0.0,
-    torque_limit_nm: 0.0,
-};
+pub(super) const NO_OBSERVER: LqgDesign = LqgDesign::ZERO;
 
 impl LawGains for LqgGains {
     /// The shipped rows' weights: a hub stiffness weight of 300 N m/rad, a rate weight of

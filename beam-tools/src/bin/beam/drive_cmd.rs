@@ -64,7 +64,7 @@ pub struct DriveArgs {
     /// Where the hub rests at power-up, deg.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     home: f64,
-    /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo fw`].
+    /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo pil-fw`; for lqg and smc-modal, release/pil-observer, built by `cargo pil-fw-observer`].
     #[arg(long, value_name = "ELF")]
     elf: Option<PathBuf>,
     /// The QEMU binary.
@@ -228,7 +228,10 @@ fn run_simulated(
             )?)
         };
         let cfg = PilConfig {
-            elf: a.elf.clone().unwrap_or_else(paths::pil_elf),
+            elf: a
+                .elf
+                .clone()
+                .unwrap_or_else(|| paths::pil_elf(a.controller)),
             qemu: a.qemu.clone(),
             plugin,
             profile: false,

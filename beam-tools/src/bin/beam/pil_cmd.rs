@@ -25,7 +25,7 @@ pub struct PilArgs {
     controller: LawKind,
     #[command(flatten)]
     run: RunArgs,
-    /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo fw`].
+    /// The PIL firmware [default: target/thumbv7em-none-eabihf/release/pil, built by `cargo pil-fw`; for lqg and smc-modal, release/pil-observer, built by `cargo pil-fw-observer`].
     #[arg(long, value_name = "ELF")]
     elf: Option<PathBuf>,
     /// The QEMU binary.
@@ -62,7 +62,10 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
         )?),
     };
     let cfg = PilConfig {
-        elf: a.elf.clone().unwrap_or_else(paths::pil_elf),
+        elf: a
+            .elf
+            .clone()
+            .unwrap_or_else(|| paths::pil_elf(a.controller)),
         qemu: a.qemu.clone(),
         plugin,
         profile: a.insn_profile.is_some(),
