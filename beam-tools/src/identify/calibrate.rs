@@ -1024,15 +1024,20 @@ impl AtBound {
     }
 }
 
+/// The local searches' tolerance on the point (relative) where nothing polishes their result.
+pub(crate) const SEARCH_XTOL: f64 = 1e-6;
+
 /// Minimises `f` over the unit cube in `dims` dimensions: a Latin hypercube of
 /// [`SAMPLES`] points (from `seed`), evaluated in parallel, then COBYLA with `evals`
 /// evaluations from `start` and the [`LOCAL_STARTS`] best samples (the costs here have
-/// several basins); returns the best point found (`start` if none is better).
+/// several basins), each until its step is below `xtol` relative to the point; returns the
+/// best point found (`start` if none is better).
 pub(crate) fn minimise(
     dims: usize,
     start: Vec<f64>,
     evals: usize,
     seed: u64,
+    xtol: f64,
     f: &(dyn Fn(&[f64]) -> f64 + Sync),
 ) -> Vec<f64> {
     let mut scored: Vec<(f64, Vec<f64>)> = latin_hypercube(SAMPLES, dims, seed)
@@ -1056,7 +1061,7 @@ pub(crate) fn minimise(
                 evals,
                 cobyla::RhoBeg::All(0.1),
                 Some(cobyla::StopTols {
-                    xtol_rel: 1e-6,
+                    xtol_rel: xtol,
                     ..Default::default()
                 }),
             ) {
@@ -1095,6 +1100,7 @@ fn fit_step<const N: usize>(
         start,
         evals,
         0x5EED ^ which.len() as u64,
+        SEARCH_XTOL,
         &objective,
     );
     // Keep the start if the search made things worse (it reports its last point on failure).
