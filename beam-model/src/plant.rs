@@ -172,8 +172,9 @@ impl Plant {
         })
     }
 
-    /// The first clamped frequency at `p`, Hz: `1/f^2` interpolated on the table.
-    fn first_hz_at(&self, p: f64) -> Option<f64> {
+    /// The first clamped frequency at payload `p` (kg), Hz: `1/f^2` interpolated on the
+    /// table; `None` outside it.
+    pub fn first_hz_at(&self, p: f64) -> Option<f64> {
         let mut below = self.first_hz.first()?;
         for above in self.first_hz {
             if p == above.0 {

@@ -370,6 +370,27 @@ fn the_observer_laws_run_on_the_drive_exactly_as_on_the_host() {
             );
         }
     }
+    // Commanded: the session (moves, waypoints, a payload change to 25 g, a stop, a fault),
+    // planned on the drive, the law rescheduled with its design on the payload command.
+    use beam_tools::link::pil_host::run_pil_commands;
+    let cfg = config(LawKind::SmcModal, false);
+    let out = run_pil_commands::<3>(
+        BeamParams::aluminium(),
+        &cfg,
+        0.0,
+        &host_tests::commanded::session_script(),
+        host_tests::sensors::SensorConfig::default(),
+    )
+    .unwrap();
+    assert!(out.identical, "max {} ulps", out.max_ulps);
+    assert_eq!(out.max_ulps, 0);
+    let end = out.pil.ticks.last().unwrap();
+    assert_eq!(end.mode, Mode::Holding);
+    assert!(
+        end.theta.to_degrees().abs() < 0.05,
+        "{}",
+        end.theta.to_degrees()
+    );
 }
 
 /// The drive's observer design at `payload_kg` (the compiled designs, scheduled) and the one

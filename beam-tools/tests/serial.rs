@@ -21,6 +21,7 @@ fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>, answers: usize) {
     let (mut commander, law) = Commander::try_new(
         &model_core::gains::PLANT,
         model_core::gains::GAIN_TABLE,
+        &[],
         LawKind::PdFf,
         0.0,
     )

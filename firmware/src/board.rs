@@ -198,6 +198,7 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
     let (commander, _) = model_core::commands::Commander::try_new(
         &model_core::gains::PLANT,
         config::ROWS,
+        config::DESIGNS,
         config::CONTROLLER,
         config::PAYLOAD_KG,
     )

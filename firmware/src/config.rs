@@ -157,7 +157,8 @@ pub fn build_commanded(
     home_rad: f32,
 ) -> Result<(CommandedController, Commander), BuildError> {
     let (commander, law) =
-        Commander::try_new(&PLANT, rows_for(kind), kind, payload_kg).map_err(BuildError::Setup)?;
+        Commander::try_new(&PLANT, rows_for(kind), designs_for(kind), kind, payload_kg)
+            .map_err(BuildError::Setup)?;
     let settings = ControllerSettings {
         theta_home_rad: home_rad,
         torque_limit_nm: PLANT.params.torque_limit_nm as f32,

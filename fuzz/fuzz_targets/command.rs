@@ -21,6 +21,7 @@ fn drives() -> &'static [(Commander, CommandedController)] {
         let (commander, law) = Commander::try_new(
             &model_core::gains::PLANT,
             model_core::gains::GAIN_TABLE,
+            &[],
             LawKind::PdFf,
             0.0,
         )

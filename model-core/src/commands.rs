@@ -19,7 +19,7 @@
 use crate::beam::ParamError;
 use crate::controller::{Controller, Mode, Snapshot};
 use crate::error::{CommandError, PlanError};
-use crate::gains::{schedule_shaper, scheduled_law, GainRow};
+use crate::gains::{schedule_shaper, scheduled_law, DesignRow, GainRow};
 use crate::law::{ControlLaw, LawKind};
 use crate::planner::{
     plan_brake, plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS,
@@ -63,6 +63,8 @@ impl core::error::Error for SetupError {}
 pub struct Commander {
     plant: &'static Plant,
     table: &'static [GainRow],
+    /// The observer laws' designs ([`crate::gains::schedule_design`]; empty for the others).
+    designs: &'static [DesignRow],
     kind: LawKind,
     payload_kg: f32,
     limits: Limits,
@@ -75,17 +77,21 @@ pub struct Commander {
 impl Commander {
     /// The handler for `kind` on `plant` carrying `payload_kg`, with the law to build the
     /// controller with. A drive passes the compiled [`crate::gains::PLANT`] and
-    /// [`crate::gains::GAIN_TABLE`].
+    /// [`crate::gains::GAIN_TABLE`], and for an observer law (lqg, smc-modal, with the
+    /// `observer` feature) the designs its build made (`designs`; without them, or without
+    /// the feature, such a law is refused).
     pub fn try_new(
         plant: &'static Plant,
         table: &'static [GainRow],
+        designs: &'static [DesignRow],
         kind: LawKind,
         payload_kg: f32,
     ) -> Result<(Self, ControlLaw), SetupError> {
-        let (law, shaper, limits) = configure(plant, table, kind, payload_kg)?;
+        let (law, shaper, limits) = configure(plant, table, designs, kind, payload_kg)?;
         let me = Self {
             plant,
             table,
+            designs,
             kind,
             payload_kg,
             limits,
@@ -171,11 +177,13 @@ impl Commander {
             }
             Command::SetPayload { kg } => {
                 ready?;
-                let (law, shaper, limits) = configure(self.plant, self.table, self.kind, *kg)
-                    .map_err(|e| match e {
-                        SetupError::NoGains => Refusal::NoGains,
-                        SetupError::Payload | SetupError::Gains(_) => Refusal::BadArgument,
-                    })?;
+                let (law, shaper, limits) =
+                    configure(self.plant, self.table, self.designs, self.kind, *kg).map_err(
+                        |e| match e {
+                            SetupError::NoGains => Refusal::NoGains,
+                            SetupError::Payload | SetupError::Gains(_) => Refusal::BadArgument,
+                        },
+                    )?;
                 Ok(Action::SetPayload(Schedule {
                     payload_kg: *kg,
                     law,
@@ -385,21 +393,49 @@ fn refusal(e: CommandError) -> Refusal {
     }
 }
 
-/// The law, shaper and limits for `kind` on `plant` carrying `payload_kg`.
+/// The law, shaper and limits for `kind` on `plant` carrying `payload_kg`. An observer law
+/// is built on its design from `designs`, scheduled on the payload; its moves last at least
+/// its [`crate::Law::min_move_periods`] of the first clamped period, as
+/// [`Limits::for_law`] plans them on a modal model.
 fn configure(
     plant: &Plant,
     table: &[GainRow],
+    designs: &[DesignRow],
     kind: LawKind,
     payload_kg: f32,
 ) -> Result<(ControlLaw, Shaper, Limits), SetupError> {
     let point = plant.at(payload_kg as f64).ok_or(SetupError::Payload)?;
     let gains = scheduled_law(table, kind, payload_kg).ok_or(SetupError::NoGains)?;
-    let law = ControlLaw::try_build(gains, point).map_err(SetupError::Gains)?;
-    Ok((
-        law,
-        schedule_shaper(table, kind, payload_kg),
-        Limits::for_plant(point),
-    ))
+    #[cfg(feature = "observer")]
+    let law = ControlLaw::try_build(
+        gains,
+        crate::gains::DesignedPlant {
+            point,
+            design: crate::gains::schedule_design(designs, kind, payload_kg),
+        },
+    );
+    // Without the feature an observer law is refused whatever the designs (and the board,
+    // built so, links nothing of them).
+    #[cfg(not(feature = "observer"))]
+    let law = {
+        let _ = designs;
+        ControlLaw::try_build(gains, point)
+    };
+    let law = law.map_err(SetupError::Gains)?;
+    #[allow(unused_mut)]
+    let mut limits = Limits::for_plant(point);
+    // Only the observer laws ask for a floor (the board, built without them, has no flash
+    // to spare for this).
+    #[cfg(feature = "observer")]
+    {
+        let periods = gains.min_move_periods() as f64;
+        if periods > 0.0 {
+            if let Some(hz) = plant.first_hz_at(payload_kg as f64).filter(|&hz| hz > 0.0) {
+                limits.min_segment_s = (periods / hz) as f32;
+            }
+        }
+    }
+    Ok((law, schedule_shaper(table, kind, payload_kg), limits))
 }
 
 #[cfg(test)]
@@ -412,6 +448,7 @@ mod tests {
         let (commander, law) = Commander::try_new(
             &crate::gains::PLANT,
             crate::gains::GAIN_TABLE,
+            &[],
             LawKind::PdFf,
             0.0,
         )

@@ -247,6 +247,7 @@ fn run_simulated(
             params,
             a.payload as f32,
             a.controller,
+            firmware::config::designs_for(a.controller),
             home,
             script,
             sensors,
