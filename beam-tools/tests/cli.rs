@@ -301,6 +301,24 @@ fn optimize_sweep_and_calibrate_run_and_report_json() {
         p["p50"].as_f64().unwrap() <= p["p95"].as_f64().unwrap()
             && p["p95"].as_f64().unwrap() <= p["max"].as_f64().unwrap()
     );
+    // A move's time given: the unshaped paper's SMC ends every move then.
+    let v = json(&beam(&[
+        "sweep",
+        "--controller",
+        "smc",
+        "--moves",
+        "45",
+        "--move-time",
+        "0.5",
+        "--cases",
+        "4",
+        "--no-peer",
+        "--json",
+    ]));
+    let end = &v["metrics"]["move_end_s"];
+    for k in ["p50", "max"] {
+        assert!((end[k].as_f64().unwrap() - 0.5).abs() < 1e-6, "{end}");
+    }
 }
 
 #[test]
@@ -340,7 +358,7 @@ fn optimize_writes_a_valid_table_row() {
 
 #[test]
 fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
-    let cases: [(&[&str], &str); 21] = [
+    let cases: [(&[&str], &str); 23] = [
         (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
         (&["simulate", "--time", "fast"], "shortest"),
         (
@@ -396,6 +414,14 @@ fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
         (&["optimize", "--robust", "20000"], "--robust"),
         (&["sweep", "--moves", "-5"], "--moves"),
         (&["sweep", "--shortest"], "--moves"),
+        (
+            &["sweep", "--moves", "45", "--move-time", "0"],
+            "--move-time",
+        ),
+        (
+            &["sweep", "--moves", "45", "--move-time", "0.3", "--shortest"],
+            "--move-time",
+        ),
         (&["calibrate", "x.csv", "--columns", "t=x:hours"], "hours"),
         (&["calibrate", "x.csv", "--windows", "0.1,0.2"], "--windows"),
         (

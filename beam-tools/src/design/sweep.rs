@@ -31,6 +31,9 @@ pub struct SweepSpec {
     /// Plan each move (of `moves_deg`) with model-core's planner at the shortest time its
     /// limits allow, as a commanded drive does, rather than at [`planned_time_s`].
     pub shortest: bool,
+    /// Each move (of `moves_deg`) in this time, s, rather than at [`planned_time_s`] (shaped
+    /// and stretched by the law's shaper, as `beam simulate --time S`).
+    pub move_time_s: Option<f64>,
     /// Simulated time from the move command, s: long enough for the settle time to be seen.
     pub duration_s: f64,
     /// What counts as settled.
@@ -69,6 +72,8 @@ pub struct Perturbation {
     pub move_deg: Option<f64>,
     /// Plan it at the planner's shortest time.
     pub shortest: bool,
+    /// Its time, s, if not the planned one ([`SweepSpec::move_time_s`]).
+    pub move_time_s: Option<f64>,
 }
 
 impl Perturbation {
@@ -96,6 +101,7 @@ impl Perturbation {
             move_deg: (!spec.moves_deg.is_empty())
                 .then(|| spec.moves_deg[index % spec.moves_deg.len()]),
             shortest: spec.shortest && !spec.moves_deg.is_empty(),
+            move_time_s: spec.move_time_s,
         }
     }
 
@@ -111,7 +117,7 @@ impl Perturbation {
                 Motion {
                     from_rad: -half,
                     to_rad: half,
-                    time_s: planned_time_s(deg) as f32,
+                    time_s: self.move_time_s.unwrap_or_else(|| planned_time_s(deg)) as f32,
                     shaper,
                     timing: Timing::Stretch,
                     shortest: self.shortest,
@@ -316,6 +322,7 @@ mod tests {
             coulomb_max_nm: 0.0,
             moves_deg: vec![],
             shortest: false,
+            move_time_s: None,
             duration_s: DEFAULT_DURATION_S,
             settle: SettleSpec::default(),
         };

@@ -49,6 +49,16 @@ pub struct SweepArgs {
     /// drive does (instead of 0.35 s * sqrt(deg / 180)).
     #[arg(long, requires = "moves")]
     shortest: bool,
+    /// Each of --moves in this time, s (shaped and stretched by the law's shaper, as `beam
+    /// simulate --time S`), instead of 0.35 s * sqrt(deg / 180): how the settle time depends
+    /// on the move's length.
+    #[arg(
+        long,
+        value_name = "S",
+        requires = "moves",
+        conflicts_with = "shortest"
+    )]
+    move_time: Option<f64>,
     /// Gains and shapers from this table (as `beam optimize --table` writes it) instead of
     /// the compiled one, for the controller and the peer.
     #[arg(long, value_name = "FILE")]
@@ -91,6 +101,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         coulomb_max_nm: a.coulomb_max,
         moves_deg: a.moves.clone(),
         shortest: a.shortest,
+        move_time_s: a.move_time,
         duration_s: a.duration,
         settle: a.settle.spec()?,
     };
@@ -146,6 +157,11 @@ fn check(a: &SweepArgs) -> anyhow::Result<()> {
         .any(|m| !(m.is_finite() && *m > 0.0 && *m <= 720.0))
     {
         bail!("--moves must be amplitudes in (0, 720] deg");
+    }
+    if a.move_time
+        .is_some_and(|t| !(t.is_finite() && t > 0.0 && t <= 10.0))
+    {
+        bail!("--move-time must be in (0, 10] s");
     }
     Ok(())
 }
