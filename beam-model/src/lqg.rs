@@ -556,22 +556,11 @@ pub fn design<const N: usize>(
     ];
 
     let mut out = LqgDesign {
-        ad: [[0.0; MAX_STATES]; MAX_STATES],
-        bd: [0.0; MAX_STATES],
-        strain_coef: [0.0; DESIGN_MODES],
-        l: [[0.0; 2]; MAX_STATES],
-        k: [0.0; MAX_STATES],
         ki: kfull[nx] as f32,
-        ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
-        ref_bd: [0.0; 2 * DESIGN_MODES],
-        ff_q: [0.0; DESIGN_MODES],
-        ff_dq: [0.0; DESIGN_MODES],
-        ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
-        obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
-        ff_s: [0.0; DESIGN_MODES],
         jeff: model.jeff as f32,
         viscous: model.beam.params().viscous_nms as f32,
         torque_limit_nm: model.beam.params().torque_limit_nm as f32,
+        ..LqgDesign::ZERO
     };
     // From the model's layout to the fixed one.
     let at = |i: usize| {
