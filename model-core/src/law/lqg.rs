@@ -166,12 +166,47 @@ fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState,
 #[cfg(feature = "observer")]
 pub(super) const RATE: usize = 1 + DESIGN_MODES;
 
+/// `init + a[0] x[0] + a[1] x[1] + ...`, written out and summed left to right, as the
+/// loops it replaces summed: the drive and the host round alike, and at the drive's
+/// `opt-level = "z"` a loop or an iterator chain is not unrolled (measured: the observer's
+/// iterator loops cost three times their multiply-adds).
+#[cfg(feature = "observer")]
+macro_rules! dot {
+    ($name:ident, $n:literal, $($i:literal)*) => {
+        #[inline(always)]
+        fn $name(init: f32, a: &[f32; $n], x: &[f32; $n]) -> f32 {
+            init $(+ a[$i] * x[$i])*
+        }
+    };
+}
+#[cfg(feature = "observer")]
+dot!(dot2, 2, 0 1);
+/// `[body(i0), body(i1), ...]`, each written out with `i` a constant, in order (the body
+/// may update running sums).
+#[cfg(feature = "observer")]
+macro_rules! unrolled {
+    ($i:ident in [$($n:literal)*] => $body:block) => {
+        [$({
+            #[allow(non_upper_case_globals)]
+            const $i: usize = $n;
+            $body
+        }),*]
+    };
+}
+#[cfg(feature = "observer")]
+dot!(dot4, 4, 0 1 2 3);
+#[cfg(feature = "observer")]
+dot!(dot6, 6, 0 1 2 3 4 5);
+
 /// The observer's tick, shared by the laws on it: its predict (with the torque applied last
 /// tick) and update (with the hub angle and root strain), the reference beam's step, and
 /// the state feedback about the reference state (the hub on its reference, the beam bent as
 /// the reference's acceleration bends it). Returns `(ff - K (x - x_ref), K (x - x_ref))`: the
 /// rigid-body and reference-beam feedforward less the state feedback, and the feedback
 /// alone, N m.
+///
+/// Written out for [`DESIGN_MODES`] = 2 (the layout `[theta, q0, q1, theta', q0', q1']`): a
+/// design with another number of modes does not compile here.
 #[cfg(feature = "observer")]
 #[inline(always)]
 pub(super) fn observe(
@@ -190,80 +225,52 @@ pub(super) fn observe(
         state.applied_nm = 0.0;
         state.observing = true;
     }
-    let xo = &state.estimate;
-    let mut pred = [0.0f32; MAX_STATES];
-    for (p, (row, b)) in pred.iter_mut().zip(d.ad.iter().zip(&d.bd)) {
-        let mut acc = b * state.applied_nm;
-        for (a, xj) in row.iter().zip(xo) {
-            acc += a * xj;
-        }
-        *p = acc;
-    }
-    // The centrifugal term at the estimated hub rate, on the rates' rows.
+    let xo = state.estimate;
+    let u_last = state.applied_nm;
+    // Each row written out (`unrolled!`): a closure or a loop here is a call or a loop at
+    // the drive's `opt-level = "z"`, and reloads the state each time.
     let w2_est = xo[RATE] * xo[RATE];
-    for (p, row) in pred[RATE..].iter_mut().zip(&d.obs_s) {
-        let mut acc = 0.0;
-        for (a, q) in row.iter().zip(&xo[1..RATE]) {
-            acc += a * q;
+    let q_est = [xo[1], xo[2]];
+    let pred = unrolled!(i in [0 1 2 3 4 5] => {
+        let p = dot6(d.bd[i] * u_last, &d.ad[i], &xo);
+        if i < RATE {
+            p
+        } else {
+            // The centrifugal term at the estimated hub rate, on the rates' rows.
+            p + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
         }
-        *p += w2_est * acc;
-    }
+    });
     let innov_theta = x.theta - pred[0];
-    let mut innov_strain = x.strain;
-    for (e, q) in d.strain_coef.iter().zip(&pred[1..]) {
-        innov_strain -= e * q;
-    }
+    let innov_strain = x.strain - d.strain_coef[0] * pred[1] - d.strain_coef[1] * pred[2];
     // The reference beam at this tick, its feedforward, and its next state.
-    let rb = &state.reference;
-    let mut u = d.jeff * r.acc + d.viscous * r.vel;
+    let rb = state.reference;
+    let (rq, rdq) = ([rb[0], rb[1]], [rb[2], rb[3]]);
     // The hub rate squared: the centrifugal term (minus the foreshortening) of the
     // reference beam, `M^-1 [-h' ; I] w^2 S q` in the hub's and the modes' equations.
     let w2 = r.vel * r.vel;
-    for (((fq, fdq), fs), (q, dq)) in d
-        .ff_q
-        .iter()
-        .zip(&d.ff_dq)
-        .zip(&d.ff_s)
-        .zip(rb.iter().zip(&rb[DESIGN_MODES..]))
-    {
-        u += fq * q + fdq * dq + w2 * fs * q;
-    }
-    let mut sigma = 0.0f32;
-    let mut next = [0.0f32; 2 * DESIGN_MODES];
-    for (nz, (row, b)) in next.iter_mut().zip(d.ref_ad.iter().zip(&d.ref_bd)) {
-        let mut acc = b * r.acc;
-        for (a, z) in row.iter().zip(rb) {
-            acc += a * z;
-        }
-        *nz = acc;
-    }
-    for (nz, row) in next[DESIGN_MODES..].iter_mut().zip(&d.ref_s) {
-        let mut acc = 0.0;
-        for (a, q) in row.iter().zip(rb) {
-            acc += a * q;
-        }
-        *nz += w2 * acc;
-    }
-    for (i, (xi, (p, l))) in state
-        .estimate
-        .iter_mut()
-        .zip(pred.iter().zip(&d.l))
-        .enumerate()
-    {
-        *xi = p + l[0] * innov_theta + l[1] * innov_strain;
-        let reference = if i == 0 {
-            r.pos
-        } else if i < RATE {
-            state.reference[i - 1]
-        } else if i == RATE {
-            r.vel
+    let mut u = d.jeff * r.acc + d.viscous * r.vel;
+    unrolled!(m in [0 1] => {
+        u += d.ff_q[m] * rq[m] + d.ff_dq[m] * rdq[m] + w2 * d.ff_s[m] * rq[m];
+    });
+    let next = unrolled!(i in [0 1 2 3] => {
+        let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
+        if i < DESIGN_MODES {
+            z
         } else {
-            state.reference[i - 1 - RATE + DESIGN_MODES]
-        };
-        let feedback = d.k[i] * (*xi - reference);
+            z + w2 * dot2(0.0, &d.ref_s[i - DESIGN_MODES], &rq)
+        }
+    });
+    // The update, and the state the feedback holds it to: the hub on its reference, the
+    // beam as the reference beam is.
+    let reference = [r.pos, rq[0], rq[1], r.vel, rdq[0], rdq[1]];
+    let mut sigma = 0.0f32;
+    state.estimate = unrolled!(i in [0 1 2 3 4 5] => {
+        let xi = pred[i] + d.l[i][0] * innov_theta + d.l[i][1] * innov_strain;
+        let feedback = d.k[i] * (xi - reference[i]);
         u -= feedback;
         sigma += feedback;
-    }
+        xi
+    });
     // Once the reference is at rest the reference beam is too: whatever it would still
     // ring with (a shaper's residual, a mode it was not tuned for) is the feedback's to
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
