@@ -165,6 +165,22 @@ fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState,
 /// Index of the hub rate in [`LqgDesign`]'s layout.
 #[cfg(feature = "observer")]
 pub(super) const RATE: usize = 1 + DESIGN_MODES;
+// `observe` is written out for this layout.
+#[cfg(feature = "observer")]
+const _: () = assert!(DESIGN_MODES == 2 && RATE == 3 && MAX_STATES == 6);
+
+/// `[body(i0), body(i1), ...]`, each written out with `i` a constant, in order (the body
+/// may update running sums). See `dot!` for why.
+#[cfg(feature = "observer")]
+macro_rules! unrolled {
+    ($i:ident in [$($n:literal)*] => $body:block) => {
+        [$({
+            #[allow(non_upper_case_globals)]
+            const $i: usize = $n;
+            $body
+        }),*]
+    };
+}
 
 /// `init + a[0] x[0] + a[1] x[1] + ...`, written out and summed left to right, as the
 /// loops it replaces summed: the drive and the host round alike, and at the drive's
@@ -181,18 +197,6 @@ macro_rules! dot {
 }
 #[cfg(feature = "observer")]
 dot!(dot2, 2, 0 1);
-/// `[body(i0), body(i1), ...]`, each written out with `i` a constant, in order (the body
-/// may update running sums).
-#[cfg(feature = "observer")]
-macro_rules! unrolled {
-    ($i:ident in [$($n:literal)*] => $body:block) => {
-        [$({
-            #[allow(non_upper_case_globals)]
-            const $i: usize = $n;
-            $body
-        }),*]
-    };
-}
 #[cfg(feature = "observer")]
 dot!(dot4, 4, 0 1 2 3);
 #[cfg(feature = "observer")]
@@ -225,23 +229,11 @@ pub(super) fn observe(
         state.applied_nm = 0.0;
         state.observing = true;
     }
-    let xo = state.estimate;
-    let u_last = state.applied_nm;
-    // Each row written out (`unrolled!`): a closure or a loop here is a call or a loop at
-    // the drive's `opt-level = "z"`, and reloads the state each time.
-    let w2_est = xo[RATE] * xo[RATE];
-    let q_est = [xo[1], xo[2]];
-    let pred = unrolled!(i in [0 1 2 3 4 5] => {
-        let p = dot6(d.bd[i] * u_last, &d.ad[i], &xo);
-        if i < RATE {
-            p
-        } else {
-            // The centrifugal term at the estimated hub rate, on the rates' rows.
-            p + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
-        }
-    });
-    let innov_theta = x.theta - pred[0];
-    let innov_strain = x.strain - d.strain_coef[0] * pred[1] - d.strain_coef[1] * pred[2];
+    // Each row is written out (`unrolled!`, `dot6`): a closure or a loop here is a call or
+    // a loop at the drive's `opt-level = "z"`, reloading the state each time. Each value is
+    // made just before it is used and stored as soon as it is made, so that the state stays
+    // in the FPU's registers instead of spilling to the stack.
+    //
     // The reference beam at this tick, its feedforward, and its next state.
     let rb = state.reference;
     let (rq, rdq) = ([rb[0], rb[1]], [rb[2], rb[3]]);
@@ -252,25 +244,6 @@ pub(super) fn observe(
     unrolled!(m in [0 1] => {
         u += d.ff_q[m] * rq[m] + d.ff_dq[m] * rdq[m] + w2 * d.ff_s[m] * rq[m];
     });
-    let next = unrolled!(i in [0 1 2 3] => {
-        let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
-        if i < DESIGN_MODES {
-            z
-        } else {
-            z + w2 * dot2(0.0, &d.ref_s[i - DESIGN_MODES], &rq)
-        }
-    });
-    // The update, and the state the feedback holds it to: the hub on its reference, the
-    // beam as the reference beam is.
-    let reference = [r.pos, rq[0], rq[1], r.vel, rdq[0], rdq[1]];
-    let mut sigma = 0.0f32;
-    state.estimate = unrolled!(i in [0 1 2 3 4 5] => {
-        let xi = pred[i] + d.l[i][0] * innov_theta + d.l[i][1] * innov_strain;
-        let feedback = d.k[i] * (xi - reference[i]);
-        u -= feedback;
-        sigma += feedback;
-        xi
-    });
     // Once the reference is at rest the reference beam is too: whatever it would still
     // ring with (a shaper's residual, a mode it was not tuned for) is the feedback's to
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
@@ -278,8 +251,45 @@ pub(super) fn observe(
     state.reference = if r.vel == 0.0 && r.acc == 0.0 {
         [0.0; 2 * DESIGN_MODES]
     } else {
-        next
+        unrolled!(i in [0 1 2 3] => {
+            let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
+            if i < DESIGN_MODES {
+                z
+            } else {
+                z + w2 * dot2(0.0, &d.ref_s[i - DESIGN_MODES], &rq)
+            }
+        })
     };
+    // The prediction, from the torque applied last tick; the innovations need the angle's
+    // and the modes' rows first.
+    let xo = state.estimate;
+    let u_last = state.applied_nm;
+    let head = unrolled!(i in [0 1 2] => { dot6(d.bd[i] * u_last, &d.ad[i], &xo) });
+    let innov_theta = x.theta - head[0];
+    let innov_strain = x.strain - d.strain_coef[0] * head[1] - d.strain_coef[1] * head[2];
+    let w2_est = xo[RATE] * xo[RATE];
+    let q_est = [xo[1], xo[2]];
+    // The update, and the state the feedback holds it to: the hub on its reference, the
+    // beam as the reference beam is.
+    let reference = [r.pos, rq[0], rq[1], r.vel, rdq[0], rdq[1]];
+    let mut sigma = 0.0f32;
+    macro_rules! update {
+        ($i:ident, $pred:expr) => {{
+            let xi = $pred + d.l[$i][0] * innov_theta + d.l[$i][1] * innov_strain;
+            let feedback = d.k[$i] * (xi - reference[$i]);
+            u -= feedback;
+            sigma += feedback;
+            state.estimate[$i] = xi;
+        }};
+    }
+    unrolled!(i in [0 1 2] => { update!(i, head[i]) });
+    // The rates' rows, with the centrifugal term at the estimated hub rate.
+    unrolled!(i in [3 4 5] => {
+        update!(
+            i,
+            dot6(d.bd[i] * u_last, &d.ad[i], &xo) + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
+        )
+    });
     (u, sigma)
 }
 
