@@ -23,6 +23,10 @@ def main() -> int:
     a = ap.parse_args()
     text = open(a.log, encoding="utf-8", errors="replace").read()
     ticks = len(re.findall(r"^tick-insns \d+$", text, re.M))
+    # `profile=worst` (`beam pil --insn-profile F --worst-tick`): the counts are one tick's.
+    worst = re.search(r"^tick-insns-profile worst (\d+)$", text, re.M)
+    if worst:
+        ticks = 1
     hits = {int(addr, 16): int(n) for addr, n in re.findall(r"^tick-insns-at (0x[0-9a-f]+) (\d+)$", text, re.M)}
     if not ticks or not hits:
         print(f"{a.log}: no tick counts or no profile (run the plugin with profile=on)", file=sys.stderr)
@@ -46,7 +50,10 @@ def main() -> int:
         inner[frames[0]] += n
         chain[" > ".join(f.split("::")[-1] for f in reversed(frames[:4]))] += n
     total = sum(hits.values())
-    print(f"{ticks} ticks, {total / ticks:.1f} instructions per tick")
+    if worst:
+        print(f"the worst tick: {total} instructions (the plugin counted {worst.group(1)})")
+    else:
+        print(f"{ticks} ticks, {total / ticks:.1f} instructions per tick")
     for title, table in (("innermost function", inner), ("call chain (outermost first)", chain)):
         print(f"\nper tick  {title}")
         for name, n in table.most_common(a.top):

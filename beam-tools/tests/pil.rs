@@ -6,7 +6,7 @@
 //! pil-fw`, a no-op when it is up to date) so the test never runs a stale binary.
 
 use beam_tools::identify::calibrate::read_log;
-use beam_tools::link::pil_host::{build_plugin, paths, run_pil, PilConfig, PilDrive};
+use beam_tools::link::pil_host::{build_plugin, paths, run_pil, InsnProfile, PilConfig, PilDrive};
 use beam_tools::link::telemetry::{first_move, write_csv};
 use beam_wire::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
 use firmware::config::{build_controller_for, compiled_law, designed_plant, designs_for};
@@ -92,7 +92,7 @@ fn config(controller: LawKind, plugin: bool) -> PilConfig {
         elf: pil_elf(controller),
         qemu: "qemu-system-arm".into(),
         plugin,
-        profile: false,
+        profile: InsnProfile::Off,
         timeout_s: 300,
         controller,
         payload_kg: 0.0,
@@ -162,6 +162,70 @@ fn the_firmware_closes_the_loop_exactly_as_the_host_build_does() {
     let log = read_log(std::str::from_utf8(&csv).unwrap(), "pil.csv").unwrap();
     assert_eq!(log.t.len(), 2001);
     assert_eq!(log.t[572], 0.572);
+}
+
+/// The plugin's per-address profile in `log`: (address, count) pairs.
+fn profile_counts(log: &str) -> Vec<(u64, u64)> {
+    log.lines()
+        .filter_map(|l| l.strip_prefix("tick-insns-at 0x"))
+        .map(|rest| {
+            let (addr, n) = rest.split_once(' ').unwrap();
+            (u64::from_str_radix(addr, 16).unwrap(), n.parse().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn the_tick_profiles_add_up_to_the_ticks_they_profile() {
+    if !qemu_present() {
+        return;
+    }
+    // Two ways of counting in the plugin: an inline counter gives each tick's total, a
+    // callback on each instruction the profile. They differ by the same few instructions in
+    // every tick (on QEMU 7.2, the start marker's body after its first instruction, which
+    // the profile counts and the window's counter misses): so every tick's profile adds up
+    // to the sum of the ticks plus that many per tick, and the worst tick's profile alone
+    // to the largest tick plus as many.
+    let opts = SimOptions::default();
+    let mut cfg = config(LawKind::Smc, true);
+    if cfg.plugin.is_none() {
+        return;
+    }
+    cfg.profile = InsnProfile::AllTicks;
+    let all = run_pil(Plant::new(model()), &cfg, &opts).unwrap();
+    cfg.profile = InsnProfile::WorstTick;
+    let worst = run_pil(Plant::new(model()), &cfg, &opts).unwrap();
+    let ticks = |log: &str| -> Vec<u64> {
+        log.lines()
+            .filter_map(|l| l.strip_prefix("tick-insns "))
+            .map(|n| n.parse().unwrap())
+            .collect()
+    };
+    let (all_ticks, worst_ticks) = (ticks(&all.insn_log), ticks(&worst.insn_log));
+    // Profiling changes nothing the drive does.
+    assert_eq!(all_ticks, worst_ticks);
+    assert_eq!((all.max_ulps, worst.max_ulps), (0, 0));
+    let sum = |counts: &[(u64, u64)]| counts.iter().map(|&(_, n)| n).sum::<u64>();
+    let largest = *worst_ticks.iter().max().unwrap();
+    assert!(worst
+        .insn_log
+        .contains(&format!("tick-insns-profile worst {largest}\n")));
+    let worst_counts = profile_counts(&worst.insn_log);
+    let per_tick = sum(&worst_counts) - largest;
+    assert!(
+        per_tick <= 6,
+        "the markers' overhead is {per_tick} instructions"
+    );
+    let all_counts = profile_counts(&all.insn_log);
+    assert_eq!(
+        sum(&all_counts),
+        all_ticks.iter().sum::<u64>() + per_tick * all_ticks.len() as u64
+    );
+    // The worst tick ran no instruction more often than all the ticks together did.
+    let total: std::collections::HashMap<u64, u64> = all_counts.into_iter().collect();
+    for (addr, n) in worst_counts {
+        assert!(n <= total[&addr], "{addr:#x}: {n} > {}", total[&addr]);
+    }
 }
 
 #[test]

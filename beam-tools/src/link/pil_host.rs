@@ -26,6 +26,19 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 
+/// Which ticks the instruction-count plugin counts per instruction address.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InsnProfile {
+    /// None: the per-tick counts only.
+    #[default]
+    Off,
+    /// Every tick, summed (`profile=on`).
+    AllTicks,
+    /// The first tick with the most instructions, alone (`profile=worst`): what a budget on
+    /// the worst tick is about.
+    WorstTick,
+}
+
 /// How to run the PIL drive.
 #[derive(Clone, Debug)]
 pub struct PilConfig {
@@ -36,8 +49,8 @@ pub struct PilConfig {
     pub qemu: String,
     /// The instruction-count plugin, if counting.
     pub plugin: Option<PathBuf>,
-    /// Run the plugin with `profile=on` (counts per instruction address; slower).
-    pub profile: bool,
+    /// Count per instruction address as well (slower), and over which ticks.
+    pub profile: InsnProfile,
     /// Seconds before QEMU is killed.
     pub timeout_s: u32,
     /// The law the drive runs.
@@ -142,8 +155,10 @@ impl PilDrive {
             .args(["-semihosting-config", "enable=on,target=native"]);
         if let Some(plugin) = &cfg.plugin {
             let mut arg = plugin.clone().into_os_string();
-            if cfg.profile {
-                arg.push(",profile=on");
+            match cfg.profile {
+                InsnProfile::Off => {}
+                InsnProfile::AllTicks => arg.push(",profile=on"),
+                InsnProfile::WorstTick => arg.push(",profile=worst"),
             }
             cmd.arg("-plugin")
                 .arg(arg)

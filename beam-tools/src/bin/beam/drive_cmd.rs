@@ -5,7 +5,9 @@
 use crate::{named, SettleArgs};
 use anyhow::{bail, Context};
 use beam_tools::link::drive_script;
-use beam_tools::link::pil_host::{build_plugin, paths, run_pil_commands, InsnStats, PilConfig};
+use beam_tools::link::pil_host::{
+    build_plugin, paths, run_pil_commands, InsnProfile, InsnStats, PilConfig,
+};
 use beam_wire::command::{Command, Outcome, Request};
 use clap::Args;
 use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
@@ -234,7 +236,7 @@ fn run_simulated(
                 .unwrap_or_else(|| paths::pil_elf(a.controller)),
             qemu: a.qemu.clone(),
             plugin,
-            profile: false,
+            profile: InsnProfile::Off,
             timeout_s: a.timeout,
             controller: a.controller,
             payload_kg: a.payload as f32,

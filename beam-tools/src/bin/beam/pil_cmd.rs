@@ -4,7 +4,9 @@
 use crate::{named, PlantArgs, RunArgs};
 use anyhow::{anyhow, bail, Context};
 use beam_tools::io::files as io;
-use beam_tools::link::pil_host::{build_plugin, paths, run_pil, PilConfig, PilOutcome};
+use beam_tools::link::pil_host::{
+    build_plugin, paths, run_pil, InsnProfile, PilConfig, PilOutcome,
+};
 use beam_tools::link::telemetry::{self, Decoded};
 use clap::Args;
 use firmware::config::compiled_law;
@@ -44,6 +46,10 @@ pub struct PilArgs {
     /// `beam-tools/qemu-plugin/profile.py ELF FILE` (several times slower).
     #[arg(long, value_name = "FILE")]
     insn_profile: Option<PathBuf>,
+    /// With --insn-profile: count the worst tick alone (the first with the most
+    /// instructions), not every tick summed.
+    #[arg(long, requires = "insn_profile")]
+    worst_tick: bool,
     /// Write the drive's telemetry for the move as CSV (the `beam calibrate` format).
     #[arg(long, value_name = "FILE")]
     telemetry: Option<PathBuf>,
@@ -68,7 +74,11 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|| paths::pil_elf(a.controller)),
         qemu: a.qemu.clone(),
         plugin,
-        profile: a.insn_profile.is_some(),
+        profile: match (&a.insn_profile, a.worst_tick) {
+            (None, _) => InsnProfile::Off,
+            (Some(_), false) => InsnProfile::AllTicks,
+            (Some(_), true) => InsnProfile::WorstTick,
+        },
         timeout_s: a.timeout,
         controller: a.controller,
         payload_kg,
