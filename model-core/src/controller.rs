@@ -606,7 +606,7 @@ impl<const K: usize> Controller<K> {
                 }
                 st.mode = Mode::Slewing;
                 st.ticks = 0;
-                st.law_state = LawState::default();
+                st.law_state.restart();
                 st.last_strain = None;
                 st.strain_rate = 0.0;
             }
