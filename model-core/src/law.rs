@@ -340,7 +340,8 @@ pub struct Estimate {
 }
 
 /// What a law carries from one tick to the next: the integral of the hub error (smc-i, lqg)
-/// and the observer's state (lqg, smc-modal). Zero when a move starts.
+/// and the observer's state (lqg, smc-modal). Restarted when a move starts
+/// ([`LawState::restart`]): as if zero, to every law.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LawState {
