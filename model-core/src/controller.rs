@@ -240,9 +240,12 @@ struct State {
     /// [`RANGE_FAULT_MARGIN_RAD`].
     range: (f32, f32),
     ticks: u32,
+    /// The spline's segment the last tick evaluated ([`Spline::eval_from`]): 0 when a move
+    /// starts, set again when a running move is replaced.
+    segment: usize,
     /// Consecutive ticks with no count change under substantial torque.
     stall_ticks: u32,
-    /// The law's own state (smc-i's integral), zeroed when a move starts.
+    /// The law's own state (smc-i's integral, the observer), cleared when a move is armed.
     law_state: LawState,
     /// The last tick's hub angle and root strain (for status and for planning the next move).
     theta: f32,
@@ -385,6 +388,10 @@ impl<const K: usize> Controller<K> {
                 }
                 // As centre and half-width: one comparison a tick.
                 st.range = ((lo + hi) / 2.0, (hi - lo) / 2.0 + RANGE_FAULT_MARGIN_RAD);
+                // The law starts the move from a clear state. Cleared here rather than when
+                // the next tick takes the start: no tick runs the law in between, and that
+                // first tick is the observer laws' worst.
+                st.law_state.restart();
                 st.start_pending = true;
                 Ok(())
             }
@@ -433,6 +440,9 @@ impl<const K: usize> Controller<K> {
         if self.mode() != Mode::Slewing {
             return Err(CommandError::NotMoving);
         }
+        // The clock stays; the new spline's search starts where this tick's time falls in it,
+        // here on the command path, not on the next tick.
+        self.st.segment = spline.segment_at(self.st.ticks as f32 * self.cfg.settings.ts_s);
         self.cfg.spline = spline;
         Ok(())
     }
@@ -606,7 +616,7 @@ impl<const K: usize> Controller<K> {
                 }
                 st.mode = Mode::Slewing;
                 st.ticks = 0;
-                st.law_state.restart();
+                st.segment = 0;
                 st.last_strain = None;
                 st.strain_rate = 0.0;
             }
@@ -683,7 +693,7 @@ impl<const K: usize> Controller<K> {
             return None;
         }
         let t = st.ticks as f32 * cfg.settings.ts_s;
-        let reference = cfg.spline.eval(t);
+        let reference = cfg.spline.eval_from(&mut st.segment, t);
         if st.mode == Mode::Slewing {
             if t >= cfg.spline.duration_s() {
                 st.mode = Mode::Holding;

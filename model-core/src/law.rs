@@ -340,8 +340,8 @@ pub struct Estimate {
 }
 
 /// What a law carries from one tick to the next: the integral of the hub error (smc-i, lqg)
-/// and the observer's state (lqg, smc-modal). Restarted when a move starts
-/// ([`LawState::restart`]): as if zero, to every law.
+/// and the observer's state (lqg, smc-modal). Cleared when a move is armed
+/// ([`LawState::restart`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LawState {
@@ -353,18 +353,12 @@ pub struct LawState {
 }
 
 impl LawState {
-    /// Ready for a new move: to every law the same as [`LawState::default`]. The observer's
-    /// arrays are cleared by its own first tick (`lqg::observe` starts from the measured
-    /// angle when it is not yet observing), so they are not cleared twice: on the drive a
-    /// whole-struct clear is a `memset` call, 37 instructions of a move's first tick, which
-    /// is the worst tick of the observer laws.
-    #[inline(always)]
+    /// Ready for a new move: the same as [`LawState::default`]. Called when a move is armed
+    /// ([`crate::Controller::start_move`]), on the command path: the move's first tick, the
+    /// observer laws' worst, then has only the observer's angle to set.
+    #[inline]
     pub fn restart(&mut self) {
-        self.integral = 0.0;
-        #[cfg(feature = "observer")]
-        {
-            self.lqg.observing = false;
-        }
+        *self = LawState::default();
     }
 }
 

@@ -50,8 +50,10 @@ pub struct ObserverState {
     pub reference: [f32; 2 * DESIGN_MODES],
     /// The torque the drive applied last tick, within the limit, N m.
     pub applied_nm: f32,
-    /// The observer has been started from the measured hub angle.
-    pub observing: bool,
+    /// The observer has been started from the measured hub angle. While false, the rest of
+    /// this state is as [`Default`] made it (a new or restarted [`LawState`]), and the next
+    /// tick only sets the angle.
+    pub(crate) observing: bool,
 }
 
 /// An all-zero design, for the laws without an observer.
@@ -222,11 +224,9 @@ pub(super) fn observe(
     let d = &this.observer;
     let state = &mut law.lqg;
     if !state.observing {
-        // From rest at the measured angle: a move starts with the hub still.
-        state.estimate = [0.0; MAX_STATES];
+        // From rest at the measured angle: a move starts with the hub still. The rest of the
+        // state was cleared when the move was armed (`LawState::restart`), off the tick.
         state.estimate[0] = x.theta;
-        state.reference = [0.0; 2 * DESIGN_MODES];
-        state.applied_nm = 0.0;
         state.observing = true;
     }
     // Each row is written out (`unrolled!`, `dot6`): a closure or a loop here is a call or
