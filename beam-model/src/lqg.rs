@@ -88,8 +88,11 @@ pub enum LqgError {
 /// `2 + DESIGN_MODES + i` mode i's rate; entries of modes past the model's are zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LqgDesign {
-    /// The sampled state matrix.
-    pub ad: [[f32; MAX_STATES]; MAX_STATES],
+    /// The sampled state matrix without its first column. No force depends on the hub angle,
+    /// so that column is exactly `[1, 0, .., 0]` (checked when the design is made): row 0
+    /// adds the angle itself, the other rows nothing, and a tick skips its six products.
+    /// `ad[i][j - 1]` is the full matrix's entry `(i, j)`, `j >= 1`.
+    pub ad: [[f32; MAX_STATES - 1]; MAX_STATES],
     /// The sampled input column, per N m.
     pub bd: [f32; MAX_STATES],
     /// Root strain per modal coordinate (the second output row is `[0, e, 0, 0]`).
@@ -134,7 +137,7 @@ pub struct LqgDesign {
 impl LqgDesign {
     /// All zero: the design slot of a law without an observer.
     pub const ZERO: Self = LqgDesign {
-        ad: [[0.0; MAX_STATES]; MAX_STATES],
+        ad: [[0.0; MAX_STATES - 1]; MAX_STATES],
         bd: [0.0; MAX_STATES],
         strain_coef: [0.0; DESIGN_MODES],
         l: [[0.0; 2]; MAX_STATES],
@@ -477,6 +480,12 @@ pub fn design<const N: usize>(
     let nx = 2 + 2 * N;
     let minv = mass_inverse(model).ok_or(LqgError::Numerics)?;
     let (ad, bd) = sampled_with(model, &minv, ts_s).ok_or(LqgError::Numerics)?;
+    // The hub angle's column is the unit vector, as no force depends on the angle: exactly,
+    // since the matrix exponential only ever multiplies that column's zeros. The tick relies
+    // on it (`LqgDesign::ad`).
+    if (0..nx).any(|i| ad[i][0] != if i == 0 { 1.0 } else { 0.0 }) {
+        return Err(LqgError::Numerics);
+    }
 
     // Regulator on [x; z], z the integral of the hub angle error: z+ = z + ts theta.
     let na = nx + 1;
@@ -571,8 +580,8 @@ pub fn design<const N: usize>(
         }
     };
     for i in 0..nx {
-        for j in 0..nx {
-            out.ad[at(i)][at(j)] = ad[i][j] as f32;
+        for j in 1..nx {
+            out.ad[at(i)][at(j) - 1] = ad[i][j] as f32;
         }
         out.bd[at(i)] = bd[i] as f32;
         out.k[at(i)] = kfull[i] as f32;
@@ -733,6 +742,11 @@ mod tests {
         )
         .unwrap();
         let nx = MAX_STATES;
+        // The whole sampled matrix, its angle column the unit vector.
+        let ad = |i: usize, j: usize| match j {
+            0 => f64::from(u8::from(i == 0)),
+            _ => d.ad[i][j - 1] as f64,
+        };
         // Iterate the closed loop (A - B K) and the observer error (I - L C) A from a unit
         // start: both must decay.
         let mut x = [1.0f64; MAX_STATES + 1];
@@ -741,7 +755,7 @@ mod tests {
             let u: f64 = (0..nx).map(|j| d.k[j] as f64 * x[j]).sum::<f64>() + d.ki as f64 * x[nx];
             let nxt: [f64; MAX_STATES + 1] = core::array::from_fn(|i| {
                 if i < nx {
-                    (0..nx).map(|j| d.ad[i][j] as f64 * x[j]).sum::<f64>() - d.bd[i] as f64 * u
+                    (0..nx).map(|j| ad(i, j) * x[j]).sum::<f64>() - d.bd[i] as f64 * u
                 } else if i == nx {
                     x[nx] + 1e-3 * x[0]
                 } else {
@@ -750,7 +764,7 @@ mod tests {
             });
             x = nxt;
             let pred: [f64; MAX_STATES] =
-                core::array::from_fn(|i| (0..nx).map(|j| d.ad[i][j] as f64 * e[j]).sum::<f64>());
+                core::array::from_fn(|i| (0..nx).map(|j| ad(i, j) * e[j]).sum::<f64>());
             let y0 = pred[0];
             let y1: f64 = (0..DESIGN_MODES)
                 .map(|i| d.strain_coef[i] as f64 * pred[1 + i])

@@ -202,7 +202,7 @@ dot!(dot2, 2, 0 1);
 #[cfg(feature = "observer")]
 dot!(dot4, 4, 0 1 2 3);
 #[cfg(feature = "observer")]
-dot!(dot6, 6, 0 1 2 3 4 5);
+dot!(dot5, 5, 0 1 2 3 4);
 
 /// The observer's tick, shared by the laws on it: its predict (with the torque applied last
 /// tick) and update (with the hub angle and root strain), the reference beam's step, and
@@ -229,7 +229,7 @@ pub(super) fn observe(
         state.estimate[0] = x.theta;
         state.observing = true;
     }
-    // Each row is written out (`unrolled!`, `dot6`): a closure or a loop here is a call or
+    // Each row is written out (`unrolled!`, `dot5`): a closure or a loop here is a call or
     // a loop at the drive's `opt-level = "z"`, reloading the state each time. Each value is
     // made just before it is used and stored as soon as it is made, so that the state stays
     // in the FPU's registers instead of spilling to the stack.
@@ -264,7 +264,14 @@ pub(super) fn observe(
     // and the modes' rows first.
     let xo = state.estimate;
     let u_last = state.applied_nm;
-    let head = unrolled!(i in [0 1 2] => { dot6(d.bd[i] * u_last, &d.ad[i], &xo) });
+    // The sampled matrix's angle column is `[1, 0, ..]` (`LqgDesign::ad`): the angle's row
+    // adds the angle, the others skip it. (`1 * x` is `x` and `0 * x` adds nothing, so the
+    // sums round as the whole rows did, up to the sign of a sum that is exactly zero.)
+    let xt = [xo[1], xo[2], xo[3], xo[4], xo[5]];
+    let head = unrolled!(i in [0 1 2] => {
+        let init = d.bd[i] * u_last;
+        dot5(if i == 0 { init + xo[0] } else { init }, &d.ad[i], &xt)
+    });
     let innov_theta = x.theta - head[0];
     let innov_strain = x.strain - d.strain_coef[0] * head[1] - d.strain_coef[1] * head[2];
     let w2_est = xo[RATE] * xo[RATE];
@@ -287,7 +294,7 @@ pub(super) fn observe(
     unrolled!(i in [3 4 5] => {
         update!(
             i,
-            dot6(d.bd[i] * u_last, &d.ad[i], &xo) + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
+            dot5(d.bd[i] * u_last, &d.ad[i], &xt) + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
         )
     });
     (u, sigma)
