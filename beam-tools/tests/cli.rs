@@ -483,13 +483,17 @@ fn new_commands_reject_bad_input_with_exit_2() {
     std::fs::write(&bad_csv, "t_s,torque_nm,theta_rad,root_strain\n0,1,2,x\n").unwrap();
     let short_csv = dir.join("short.csv");
     std::fs::write(&short_csv, "t_s,torque_nm\n0,1\n").unwrap();
-    let cases: [&[&str]; 7] = [
+    let cases: [&[&str]; 11] = [
         &["calibrate", "/nonexistent/log.csv"],
         &["calibrate", bad_csv.to_str().unwrap()],
         &["calibrate", short_csv.to_str().unwrap()],
         &["optimize", "--bound", "w=5:1"],
         &["optimize", "--w2", "nan"],
+        &["optimize", "--damping-ratio", "0.005,0.02"],
         &["sweep", "--spread", "2"],
+        &["sweep", "--damping-ratio", "0.02,0.005"],
+        &["sweep", "--damping-ratio", "0.005"],
+        &["sweep", "--damping-ratio", "0,0.02"],
         &["simulate", "--params", "/nonexistent/p.toml"],
     ];
     for args in cases {
@@ -764,6 +768,22 @@ fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
     // Cases take the moves in turn.
     let moves: Vec<&str> = rows.iter().map(|r| r[at("move_deg")]).collect();
     assert_eq!(moves[..4], ["15", "90", "15", "90"]);
+    // A damping ratio drawn from a range: the CSV's scale is over the preset's 1 %, and the
+    // other draws are the same cases.
+    let c = dir.join("c.csv");
+    let mut argv = args(None, c.to_str().unwrap());
+    argv.extend(["--damping-ratio".to_string(), "0.005,0.02".to_string()]);
+    let v = json(&beam(&argv.iter().map(String::as_str).collect::<Vec<_>>()));
+    assert_eq!(v["damping_ratio"], serde_json::json!([0.005, 0.02]));
+    assert_eq!(compiled["damping_ratio"], serde_json::Value::Null);
+    let ranged = std::fs::read_to_string(&c).unwrap();
+    for (r, line) in rows.iter().zip(ranged.lines().skip(1)) {
+        let q: Vec<&str> = line.split(',').collect();
+        let scale: f64 = q[at("damping_scale")].parse().unwrap();
+        assert!((0.5..=2.0).contains(&scale), "{scale}");
+        assert_eq!(q[at("ei_scale")], r[at("ei_scale")]);
+        assert_eq!(q[at("payload_kg")], r[at("payload_kg")]);
+    }
     // A table without the controller's rows is refused, naming the file.
     let shipped_text = std::fs::read_to_string(shipped).unwrap();
     let mut parts = shipped_text.split("\n[[row]]");

@@ -18,6 +18,10 @@ pub struct SweepSpec {
     pub cases: usize,
     /// Relative parameter error bound (0.2 = +-20 %).
     pub spread: f64,
+    /// The modal damping ratio drawn log-uniformly from `(low, high)` (as many beams damped
+    /// below the geometric middle as above it) instead of the nominal's within `spread`.
+    /// `None`: within `spread`.
+    pub damping_ratio: Option<(f64, f64)>,
     /// Largest payload, kg (drawn uniformly from 0).
     pub payload_max_kg: f64,
     /// Seed.
@@ -62,8 +66,10 @@ pub struct Perturbation {
     pub jm: f64,
     /// Viscous and Coulomb friction multiplier.
     pub friction: f64,
-    /// Damping ratio multiplier.
+    /// Damping ratio multiplier (unused when `damping_ratio` is drawn).
     pub damping: f64,
+    /// The damping ratio, when drawn from [`SweepSpec::damping_ratio`].
+    pub damping_ratio: Option<f64>,
     /// Payload, kg.
     pub payload_kg: f64,
     /// Coulomb friction, N m, when drawn (`coulomb_max_nm` > 0).
@@ -90,12 +96,17 @@ impl Perturbation {
         // Drawn after the others, so a spec without them draws the same cases as before.
         let coulomb_nm =
             (spec.coulomb_max_nm > 0.0).then(|| spec.coulomb_max_nm * rng.gen::<f64>());
+        // Last of all, for the same reason.
+        let damping_ratio = spec
+            .damping_ratio
+            .map(|(low, high)| low * (high / low).powf(rng.gen::<f64>()));
         Self {
             ei,
             rho,
             jm,
             friction,
             damping,
+            damping_ratio,
             payload_kg,
             coulomb_nm,
             move_deg: (!spec.moves_deg.is_empty())
@@ -137,7 +148,10 @@ impl Perturbation {
             coulomb_nm: self
                 .coulomb_nm
                 .unwrap_or(nominal.coulomb_nm * self.friction),
-            damping_ratio: (nominal.damping_ratio * self.damping).min(0.99),
+            damping_ratio: self
+                .damping_ratio
+                .unwrap_or(nominal.damping_ratio * self.damping)
+                .min(0.99),
             tip_mass_kg: self.payload_kg,
             ..*nominal
         }
@@ -317,6 +331,7 @@ mod tests {
         let spec = SweepSpec {
             cases: 10,
             spread: 0.2,
+            damping_ratio: None,
             payload_max_kg: 0.05,
             seed: 3,
             coulomb_max_nm: 0.0,
@@ -345,6 +360,32 @@ mod tests {
             assert!((0.0..=0.05).contains(&q.coulomb_nm.unwrap()));
             assert_eq!(q.move_deg, Some([15.0, 180.0][i % 2]));
         }
+        // A damping ratio from a range: within it, log-uniform (half the beams below the
+        // geometric middle, 1 % for 0.5-2 %, a quarter below 0.71 %), the rest as drawn
+        // without it.
+        let ranged = SweepSpec {
+            damping_ratio: Some((0.005, 0.02)),
+            ..spec.clone()
+        };
+        let nominal = BeamParams::aluminium();
+        let ratios: Vec<f64> = (0..4000)
+            .map(|i| {
+                let (p, q) = (Perturbation::draw(&spec, i), Perturbation::draw(&ranged, i));
+                assert_eq!(
+                    (q.ei, q.damping, q.payload_kg),
+                    (p.ei, p.damping, p.payload_kg)
+                );
+                assert_eq!(p.damping_ratio, None);
+                let r = q.apply(&nominal).damping_ratio;
+                assert_eq!(Some(r), q.damping_ratio);
+                assert!((0.005..=0.02).contains(&r), "{r}");
+                r
+            })
+            .collect();
+        let below = |x: f64| ratios.iter().filter(|&&r| r < x).count() as f64 / 4000.0;
+        // Binomial, n = 4000: one standard deviation is under 0.008.
+        assert!((below(0.01) - 0.5).abs() < 0.03, "{}", below(0.01));
+        assert!((below(0.005 * 2f64.sqrt()) - 0.25).abs() < 0.03);
         // The planned time keeps the paper's peak acceleration: 180 deg in 0.35 s.
         assert!((planned_time_s(180.0) - 0.35).abs() < 1e-12);
         assert!((planned_time_s(45.0) - 0.175).abs() < 1e-12);

@@ -111,6 +111,26 @@ macro_rules! named {
 named!(LawKind, Switching, Preset, ShaperKind);
 
 /// The value parser of a [`Named`] argument: `--controller smc-strain`, `--preset aluminium`.
+/// `LO,HI`: a range of modal damping ratios, `0 < LO <= HI < 1` (`--damping-ratio` of `sweep`
+/// and `optimize --robust`).
+fn damping_range(text: &str) -> Result<(f64, f64), String> {
+    let (lo, hi) = text
+        .split_once(',')
+        .ok_or("expected LO,HI, for instance 0.005,0.02 (0.5 to 2 %)")?;
+    let ratio = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .map_err(|e| format!("{v:?} is not a number: {e}"))
+    };
+    let (lo, hi) = (ratio(lo)?, ratio(hi)?);
+    if !(lo > 0.0 && lo <= hi && hi < 1.0) {
+        return Err(format!(
+            "{lo},{hi}: damping ratios must satisfy 0 < LO <= HI < 1 (0.005,0.02 is 0.5 to 2 %)"
+        ));
+    }
+    Ok((lo, hi))
+}
+
 fn named<T: Named>() -> impl clap::builder::TypedValueParser<Value = T>
 where
     T::Err: std::error::Error + Send + Sync + 'static,

@@ -110,6 +110,10 @@ pub struct OptimizeArgs {
     /// Robust design: EI, density, Jm and modal damping each within +-SPREAD.
     #[arg(long, default_value_t = 0.2)]
     spread: f64,
+    /// Robust design: the modal damping ratio drawn log-uniformly from LO to HI (for
+    /// instance 0.005,0.02) instead of the preset's within +-SPREAD.
+    #[arg(long, value_name = "LO,HI", value_parser = crate::damping_range, requires = "robust")]
+    damping_ratio: Option<(f64, f64)>,
     /// Robust design: Coulomb friction drawn from 0 to this, N m.
     #[arg(long, default_value_t = 0.05)]
     coulomb_max: f64,
@@ -380,6 +384,7 @@ fn scenarios(
     let sweep = beam_tools::design::sweep::SweepSpec {
         cases: a.robust,
         spread: a.spread,
+        damping_ratio: a.damping_ratio,
         payload_max_kg: 0.0,
         seed: a.seed,
         coulomb_max_nm: 0.0,

@@ -1,13 +1,13 @@
 //! `beam sweep`: Monte Carlo over parameter errors and payloads, the scheduled controller
 //! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
 
-use crate::{beam, named, PlantArgs, SettleArgs};
+use crate::{beam, damping_range, named, PlantArgs, SettleArgs};
 use anyhow::{bail, Context};
 use beam_tools::design::sweep::{sweep, Case, LawSummary, SweepSpec, SUMMARY};
 use beam_tools::io::plot::{histograms, HistogramPanel};
 use clap::Args;
 use host_tests::metrics::Metrics;
-use model_core::{Law, LawKind, PdGains};
+use model_core::{BeamParams, Law, LawKind, PdGains};
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
@@ -32,6 +32,10 @@ pub struct SweepArgs {
     /// Parameter error bound: EI, rho, Jm, friction and damping each within +-SPREAD.
     #[arg(long, default_value_t = 0.2)]
     spread: f64,
+    /// The modal damping ratio drawn log-uniformly from LO to HI (for instance 0.005,0.02:
+    /// 0.5 to 2 %, half the beams below 1 %) instead of the preset's within +-SPREAD.
+    #[arg(long, value_name = "LO,HI", value_parser = damping_range)]
+    damping_ratio: Option<(f64, f64)>,
     /// Largest payload, kg (uniform from 0).
     #[arg(long, default_value_t = 0.05)]
     payload_max: f64,
@@ -96,6 +100,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     let spec = SweepSpec {
         cases: a.cases,
         spread: a.spread,
+        damping_ratio: a.damping_ratio,
         payload_max_kg: a.payload_max,
         seed: a.seed,
         coulomb_max_nm: a.coulomb_max,
@@ -111,7 +116,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         sweep(&nominal, &spec, &law_at, Law::Pd(PdGains::BASELINE), peer)
     )?;
     let seconds = started.elapsed().as_secs_f64();
-    write_files(a, &cases)?;
+    write_files(a, &nominal, &cases)?;
     let controller = LawSummary::of(&cases, |c| Some(&c.controller));
     let baseline = LawSummary::of(&cases, |c| Some(&c.baseline));
     let peer = peer
@@ -179,9 +184,9 @@ fn load_table(a: &SweepArgs) -> anyhow::Result<Option<Vec<model_core::gains::Gai
 }
 
 /// `--csv` (a row per case) and `--plot` (histograms against the baseline).
-fn write_files(a: &SweepArgs, cases: &[Case]) -> anyhow::Result<()> {
+fn write_files(a: &SweepArgs, nominal: &BeamParams, cases: &[Case]) -> anyhow::Result<()> {
     if let Some(path) = &a.csv {
-        beam_tools::io::files::write_atomically(path, |w| write_csv(cases, w))
+        beam_tools::io::files::write_atomically(path, |w| write_csv(nominal, cases, w))
             .with_context(|| path.display().to_string())?;
     }
     let Some(path) = &a.plot else {
@@ -210,8 +215,11 @@ fn write_files(a: &SweepArgs, cases: &[Case]) -> anyhow::Result<()> {
         }),
     ];
     let kind = a.controller.name();
+    let damping = a.damping_ratio.map_or(String::new(), |(lo, hi)| {
+        format!(", damping {}-{} %", lo * 100.0, hi * 100.0)
+    });
     let title = format!(
-        "{} vs PD 20/1: {} cases, +-{:.0} % parameters, 0..{} kg",
+        "{} vs PD 20/1: {} cases, +-{:.0} % parameters{damping}, 0..{} kg",
         kind,
         a.cases,
         a.spread * 100.0,
@@ -253,6 +261,10 @@ fn print_json(
     put("modes", json!(a.plant.modes));
     put("cases", json!(a.cases));
     put("spread", json!(a.spread));
+    put(
+        "damping_ratio",
+        json!(a.damping_ratio.map(|(lo, hi)| [lo, hi])),
+    );
     put("payload_max_kg", json!(a.payload_max));
     put("seed", json!(a.seed));
     put("seconds", json!(seconds));
@@ -287,8 +299,15 @@ fn print_text(
     peer: Option<&LawSummary>,
 ) {
     let kind = a.controller.name();
+    let damping = a.damping_ratio.map_or("damping".to_string(), |(lo, hi)| {
+        format!(
+            "damping ratio {}-{} % (log-uniform)",
+            lo * 100.0,
+            hi * 100.0
+        )
+    });
     println!(
-        "{} cases in {seconds:.1} s: {kind} (gain table) vs PD 20/1, {} preset, {} mode(s), +-{:.0} % on EI, rho, Jm, friction, damping, payload 0..{} kg",
+        "{} cases in {seconds:.1} s: {kind} (gain table) vs PD 20/1, {} preset, {} mode(s), +-{:.0} % on EI, rho, Jm, friction, {damping}, payload 0..{} kg",
         a.cases,
         a.plant.preset_label(),
         a.plant.modes,
@@ -339,7 +358,9 @@ fn print_text(
     }
 }
 
-fn write_csv(cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
+/// `damping_scale` is the damping ratio drawn over the nominal's, also when it was drawn from
+/// `--damping-ratio`.
+fn write_csv(nominal: &BeamParams, cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
     write!(
         w,
         "case,payload_kg,ei_scale,rho_scale,jm_scale,friction_scale,damping_scale,coulomb_nm,move_deg"
@@ -370,7 +391,8 @@ fn write_csv(cases: &[Case], w: &mut dyn Write) -> std::io::Result<()> {
             p.rho,
             p.jm,
             p.friction,
-            p.damping,
+            p.damping_ratio
+                .map_or(p.damping, |r| r / nominal.damping_ratio),
             opt(p.coulomb_nm),
             opt(p.move_deg)
         )?;
