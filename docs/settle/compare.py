@@ -8,7 +8,9 @@ Runs `beam` (the host build: target/host/beam, made by `cargo build --profile ho
 beam-tools`) and prints a Markdown table. With --plot DIR it also writes the 180 deg
 sweep's histograms (settle time and residual strain, against PD 20/1) for smc-modal, lqg
 and pd-ff.
-Usage: docs/settle/compare.py [CASES] [--plot DIR]
+With --readme it prints the README's table instead: a row per law, a cell per move
+(settle nominal / p50 / p95, s; peak torque over the sweep, N m).
+Usage: docs/settle/compare.py [CASES] [--plot DIR] [--readme]
 """
 import json
 import pathlib
@@ -58,8 +60,26 @@ def fmt(x, unit=""):
     return "never" if x is None else f"{x:.2f}{unit}"
 
 
+def readme(cases):
+    print("| law | " + " | ".join(f"{d} deg" for d in MOVES)
+          + f" | not settled of {cases * len(MOVES)} | hold 0.5 N m, deg |")
+    print("|---|" + "---|" * len(MOVES) + "---|---|")
+    for law in LAWS:
+        cells, unsettled = [], 0
+        for deg in MOVES:
+            s, _, _ = nominal(law, deg)
+            p50, p95, never, _, peak_max = spread(law, deg, cases, None)
+            unsettled += never
+            cells.append(f"{fmt(s)} / {fmt(p50)} / {fmt(p95)}; {peak_max:.1f} N m")
+        print(f"| {law} | " + " | ".join(cells) + f" | {unsettled} | {fmt(hold(law))} |")
+        sys.stdout.flush()
+
+
 def main():
     cases = int(sys.argv[1]) if len(sys.argv) > 1 and sys.argv[1].isdigit() else 200
+    if "--readme" in sys.argv:
+        readme(cases)
+        return
     plot = sys.argv[sys.argv.index("--plot") + 1] if "--plot" in sys.argv else None
     print(f"| law | move | settle nominal, s | p50 / p95 over {cases} beams, s | not settled / broke down | move end T, s | peak torque nominal / max, N m | hold 0.5 N m, deg |")
     print("|---|---|---|---|---|---|---|---|")
