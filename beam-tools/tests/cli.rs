@@ -483,7 +483,7 @@ fn new_commands_reject_bad_input_with_exit_2() {
     std::fs::write(&bad_csv, "t_s,torque_nm,theta_rad,root_strain\n0,1,2,x\n").unwrap();
     let short_csv = dir.join("short.csv");
     std::fs::write(&short_csv, "t_s,torque_nm\n0,1\n").unwrap();
-    let cases: [&[&str]; 11] = [
+    let cases: [&[&str]; 13] = [
         &["calibrate", "/nonexistent/log.csv"],
         &["calibrate", bad_csv.to_str().unwrap()],
         &["calibrate", short_csv.to_str().unwrap()],
@@ -494,6 +494,8 @@ fn new_commands_reject_bad_input_with_exit_2() {
         &["sweep", "--damping-ratio", "0.02,0.005"],
         &["sweep", "--damping-ratio", "0.005"],
         &["sweep", "--damping-ratio", "0,0.02"],
+        &["sweep", "--trace", "t.csv"],
+        &["sweep", "--cases", "8", "--case", "8"],
         &["simulate", "--params", "/nonexistent/p.toml"],
     ];
     for args in cases {
@@ -768,6 +770,39 @@ fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
     // Cases take the moves in turn.
     let moves: Vec<&str> = rows.iter().map(|r| r[at("move_deg")]).collect();
     assert_eq!(moves[..4], ["15", "90", "15", "90"]);
+    // One case alone (`--case`) is that row of the sweep: the same draw, the same settle
+    // time, and its trace.
+    let trace = dir.join("trace.csv");
+    let mut argv = args(None, "unused.csv");
+    argv.retain(|x| x != "--csv" && x != "unused.csv");
+    argv.extend(["--case", "3", "--trace", trace.to_str().unwrap()].map(String::from));
+    let one = json(&beam(&argv.iter().map(String::as_str).collect::<Vec<_>>()));
+    let row = &rows[3];
+    let num = |v: &serde_json::Value| v.as_f64().unwrap();
+    assert_eq!(one["case"], 3);
+    assert_eq!(
+        num(&one["draw"]["ei_scale"]),
+        row[at("ei_scale")].parse::<f64>().unwrap()
+    );
+    assert_eq!(
+        num(&one["draw"]["payload_kg"]),
+        row[at("payload_kg")].parse::<f64>().unwrap()
+    );
+    let settle: f64 = row[at("ctl_settle_s")].parse().unwrap();
+    assert_eq!(
+        one["settle_s"].as_f64().unwrap_or(f64::INFINITY),
+        settle,
+        "{one}"
+    );
+    let traced = std::fs::read_to_string(&trace).unwrap();
+    assert!(traced.starts_with("t_s,torque_nm,theta_rad,"));
+    // 1 kHz over the sweep's 4 s, from t = 0 inclusive.
+    assert_eq!(
+        traced.lines().count(),
+        1 + 4001,
+        "{}",
+        traced.lines().count()
+    );
     // A damping ratio drawn from a range: the CSV's scale is over the preset's 1 %, and the
     // other draws are the same cases.
     let c = dir.join("c.csv");

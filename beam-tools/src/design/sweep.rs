@@ -6,7 +6,7 @@
 
 use host_tests::metrics::{metrics_with, Metrics, SettleSpec};
 use host_tests::sensors::SensorConfig;
-use host_tests::sim::{simulate_mismatched, Motion, SimError, SimOptions};
+use host_tests::sim::{simulate_mismatched, Motion, SimError, SimOptions, SimResult};
 use model_core::{Beam, BeamParams, Law, ModalModel, Shaper, Timing};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
@@ -174,6 +174,47 @@ pub struct Case {
 /// A law with its shaper, as scheduled for a payload.
 pub type Tuned = (Law, Shaper);
 
+/// One case's beams: the plant as drawn, and the nominal model at the drawn payload, which
+/// the drive is built on.
+struct CaseBeams<const N: usize> {
+    index: usize,
+    perturbation: Perturbation,
+    plant: ModalModel<N>,
+    drive: ModalModel<N>,
+}
+
+impl<const N: usize> CaseBeams<N> {
+    fn draw(nominal: &BeamParams, spec: &SweepSpec, index: usize) -> Result<Self, SimError> {
+        let p = Perturbation::draw(spec, index);
+        let build = |params: BeamParams| -> Result<ModalModel<N>, SimError> {
+            Ok(ModalModel::try_build(&Beam::try_build(params)?)?)
+        };
+        Ok(Self {
+            index,
+            perturbation: p,
+            plant: build(p.apply(nominal))?,
+            drive: build(BeamParams {
+                tip_mass_kg: p.payload_kg,
+                ..*nominal
+            })?,
+        })
+    }
+
+    /// `law` with its shaper through the case's move, sensors seeded per case.
+    fn run(&self, spec: &SweepSpec, (law, shaper): Tuned) -> Result<SimResult, SimError> {
+        let opts = SimOptions {
+            sensors: SensorConfig {
+                seed: spec.seed ^ self.index as u64,
+                ..Default::default()
+            },
+            motion: self.perturbation.motion(shaper),
+            duration_s: spec.duration_s,
+            ..Default::default()
+        };
+        simulate_mismatched(&self.plant, &self.drive, law, &opts)
+    }
+}
+
 /// Runs the sweep. `law_for_payload` gives the controller's gains at a payload (the gain
 /// table's schedule); `baseline` is the comparison law.
 pub fn sweep<const N: usize>(
@@ -186,26 +227,10 @@ pub fn sweep<const N: usize>(
     (0..spec.cases)
         .into_par_iter()
         .map(|i| {
-            let p = Perturbation::draw(spec, i);
-            let build = |params: BeamParams| -> Result<ModalModel<N>, SimError> {
-                Ok(ModalModel::try_build(&Beam::try_build(params)?)?)
-            };
-            let plant = build(p.apply(nominal))?;
-            let drive = build(BeamParams {
-                tip_mass_kg: p.payload_kg,
-                ..*nominal
-            })?;
-            let run = |(law, shaper): Tuned| {
-                let opts = SimOptions {
-                    sensors: SensorConfig {
-                        seed: spec.seed ^ i as u64,
-                        ..Default::default()
-                    },
-                    motion: p.motion(shaper),
-                    duration_s: spec.duration_s,
-                    ..Default::default()
-                };
-                simulate_mismatched(&plant, &drive, law, &opts)
+            let case = CaseBeams::<N>::draw(nominal, spec, i)?;
+            let p = case.perturbation;
+            let run = |tuned| {
+                case.run(spec, tuned)
                     .map(|r| metrics_with(&r, &spec.settle))
             };
             Ok(Case {
@@ -216,6 +241,20 @@ pub fn sweep<const N: usize>(
             })
         })
         .collect()
+}
+
+/// Case `index` of the sweep `spec` alone, the controller only: what was drawn and the whole
+/// run, as [`sweep`] runs it (the same beams, move and sensor noise), to see why a case is
+/// slow.
+pub fn trace_case<const N: usize>(
+    nominal: &BeamParams,
+    spec: &SweepSpec,
+    law_for_payload: &(dyn Fn(f64) -> Tuned + Sync),
+    index: usize,
+) -> Result<(Perturbation, SimResult), SimError> {
+    let case = CaseBeams::<N>::draw(nominal, spec, index)?;
+    let p = case.perturbation;
+    Ok((p, case.run(spec, law_for_payload(p.payload_kg))?))
 }
 
 /// p50, p95 and max of the values (nearest-rank percentiles), NaN left out; `None` if there

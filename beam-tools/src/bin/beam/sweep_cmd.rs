@@ -3,7 +3,7 @@
 
 use crate::{beam, damping_range, named, PlantArgs, SettleArgs};
 use anyhow::{bail, Context};
-use beam_tools::design::sweep::{sweep, Case, LawSummary, SweepSpec, SUMMARY};
+use beam_tools::design::sweep::{sweep, trace_case, Case, LawSummary, SweepSpec, SUMMARY};
 use beam_tools::io::plot::{histograms, HistogramPanel};
 use clap::Args;
 use host_tests::metrics::Metrics;
@@ -79,6 +79,14 @@ pub struct SweepArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Run only case N of this sweep (the same beam, payload, move and sensor noise as in
+    /// the whole sweep; 0-based, the CSV's `case`), the controller alone, and report its
+    /// draw and the metrics of `beam simulate`: to see why a case is slow.
+    #[arg(long, value_name = "N", conflicts_with_all = ["csv", "plot"])]
+    case: Option<usize>,
+    /// With --case: write that run's trace (the columns of `beam simulate --csv`).
+    #[arg(long, value_name = "FILE", requires = "case")]
+    trace: Option<PathBuf>,
 }
 
 pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
@@ -110,6 +118,9 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         duration_s: a.duration,
         settle: a.settle.spec()?,
     };
+    if let Some(index) = a.case {
+        return run_case(a, &nominal, &spec, &law_at, index);
+    }
     let started = Instant::now();
     let cases = with_modes!(
         a.plant.modes,
@@ -128,6 +139,69 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         print_text(a, seconds, &controller, &baseline, peer.as_ref());
     }
     Ok(())
+}
+
+/// `--case N`: case N alone, its draw and metrics, and its trace with `--trace`.
+fn run_case(
+    a: &SweepArgs,
+    nominal: &BeamParams,
+    spec: &SweepSpec,
+    law_at: &(dyn Fn(f64) -> beam_tools::design::sweep::Tuned + Sync),
+    index: usize,
+) -> anyhow::Result<()> {
+    let (p, run) = with_modes!(a.plant.modes, trace_case(nominal, spec, law_at, index))?;
+    if let Some(path) = &a.trace {
+        beam_tools::io::files::write_atomically(path, |w| {
+            beam_tools::io::files::write_trace_csv(&run, w)
+        })
+        .with_context(|| path.display().to_string())?;
+    }
+    let law = law_at(p.payload_kg).0;
+    let mut o = crate::run_json(
+        &run,
+        &law,
+        &a.plant.preset_label(),
+        a.plant.modes,
+        &spec.settle,
+    )?;
+    let damping_scale = p
+        .damping_ratio
+        .map_or(p.damping, |r| r / nominal.damping_ratio);
+    let draw = json!({
+        "payload_kg": p.payload_kg, "ei_scale": p.ei, "rho_scale": p.rho, "jm_scale": p.jm,
+        "friction_scale": p.friction, "damping_scale": damping_scale,
+        "damping_ratio": p.apply(nominal).damping_ratio, "coulomb_nm": p.coulomb_nm,
+        "move_deg": p.move_deg,
+    });
+    if a.json {
+        o.insert("case".into(), json!(index));
+        o.insert("draw".into(), draw);
+        println!("{}", serde_json::Value::Object(o));
+    } else {
+        let settled = run_settle(&o);
+        println!(
+            "case {index} of the sweep (seed {}): {}",
+            a.seed,
+            serde_json::to_string(&draw)?
+        );
+        println!(
+            "  {}: settled {settled}, move end T = {:.3} s",
+            a.controller.name(),
+            run.move_end_s
+        );
+        if let Some(path) = &a.trace {
+            println!("  trace written to {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// The settle time of a run's JSON, as text.
+fn run_settle(o: &serde_json::Map<String, serde_json::Value>) -> String {
+    match o.get("settle_s").and_then(|v| v.as_f64()) {
+        Some(s) => format!("at {s:.3} s from the move command"),
+        None => "never within the run".to_string(),
+    }
 }
 
 /// The arguments' ranges, checked before anything runs.
@@ -150,6 +224,13 @@ fn check(a: &SweepArgs) -> anyhow::Result<()> {
     a.settle.spec()?;
     if a.cases == 0 || a.cases > 1_000_000 {
         bail!("--cases {} must be 1..=1000000", a.cases);
+    }
+    if let Some(n) = a.case.filter(|&n| n >= a.cases) {
+        bail!(
+            "--case {n} is not a case of a {}-case sweep (0 to {}, as the CSV numbers them)",
+            a.cases,
+            a.cases - 1
+        );
     }
     if let Some(path) = &a.plot {
         beam_tools::io::plot::check_extension(path)?;
