@@ -160,36 +160,7 @@ impl<const K: usize> Spline<K> {
     /// held at rest before 0 and after the duration. A NaN time gives the start point. (A
     /// move that starts in motion, a stop, has its speed at t = 0.)
     pub fn eval(&self, t_s: f32) -> RefPoint {
-        if !(t_s >= 0.0) {
-            return RefPoint {
-                pos: self.start,
-                vel: 0.0,
-                acc: 0.0,
-            };
-        }
-        if t_s >= self.duration_s {
-            return RefPoint {
-                pos: self.end,
-                vel: 0.0,
-                acc: 0.0,
-            };
-        }
-        // A built spline has at least one segment; the fallback keeps this path free of
-        // index panics all the same (the firmware's tick is checked to contain none).
-        match self
-            .segments
-            .iter()
-            .rev()
-            .find(|s| t_s >= s.t0_s)
-            .or_else(|| self.segments.first())
-        {
-            Some(seg) => Self::eval_in(seg, t_s),
-            None => RefPoint {
-                pos: self.start,
-                vel: 0.0,
-                acc: 0.0,
-            },
-        }
+        self.eval_from(&mut self.segment_at(t_s), t_s)
     }
 
     /// [`Spline::eval`] for times that do not decrease from one call to the next (a move's
@@ -200,19 +171,16 @@ impl<const K: usize> Spline<K> {
     /// `eval` looks past.
     #[inline(always)]
     pub fn eval_from(&self, segment: &mut usize, t_s: f32) -> RefPoint {
+        let at_rest = |pos| RefPoint {
+            pos,
+            vel: 0.0,
+            acc: 0.0,
+        };
         if !(t_s >= 0.0) {
-            return RefPoint {
-                pos: self.start,
-                vel: 0.0,
-                acc: 0.0,
-            };
+            return at_rest(self.start);
         }
         if t_s >= self.duration_s {
-            return RefPoint {
-                pos: self.end,
-                vel: 0.0,
-                acc: 0.0,
-            };
+            return at_rest(self.end);
         }
         let mut i = *segment;
         let mut rest = self.segments.get(i..).unwrap_or_default();
@@ -226,13 +194,11 @@ impl<const K: usize> Spline<K> {
             }
         }
         *segment = i;
+        // A built spline has at least one segment; the fallback keeps this path free of
+        // index panics all the same (the firmware's tick is checked to contain none).
         match rest.first() {
             Some(seg) => Self::eval_in(seg, t_s),
-            None => RefPoint {
-                pos: self.start,
-                vel: 0.0,
-                acc: 0.0,
-            },
+            None => at_rest(self.start),
         }
     }
 
@@ -481,24 +447,41 @@ mod tests {
     }
 
     proptest! {
-        /// A move's ticks through the cursor give exactly what the search from the last knot
-        /// gives, tick by tick and at the knots themselves (where the later segment
-        /// starts), also when the cursor starts mid-move from `segment_at` (a stop).
+        /// The segment a time falls in is the last whose knot is at or before it, counted
+        /// from the knots themselves: the cursor of a move's ticks finds it, tick by tick
+        /// and at the knots (where the later segment starts), also when it starts mid-move
+        /// from `segment_at` (a stop), and `eval` evaluates it.
         #[test]
         fn the_cursor_finds_the_segment_the_search_finds(k in knots(), from in 0.0_f32..1.0) {
             let s = Spline::<8>::try_build(&k).unwrap();
+            let segment_of = |t: f32| k.iter().filter(|&&(t0, _)| t0 <= t).count().max(1) - 1;
+            let expected = |t: f32| {
+                if t >= s.duration_s() {
+                    RefPoint { pos: s.end(), vel: 0.0, acc: 0.0 }
+                } else {
+                    Spline::<8>::eval_in(&s.segments[segment_of(t)], t)
+                }
+            };
             let mut times: std::vec::Vec<f32> =
                 (0..=(s.duration_s() * 1000.0) as u32 + 20).map(|n| n as f32 * 1e-3).collect();
             times.extend(k.iter().map(|&(t, _)| t));
             times.sort_by(f32::total_cmp);
             let mut seg = 0;
             for &t in &times {
-                prop_assert_eq!(s.eval_from(&mut seg, t), s.eval(t), "at {}", t);
+                prop_assert_eq!(s.eval_from(&mut seg, t), expected(t), "at {}", t);
+                prop_assert_eq!(s.eval(t), expected(t), "at {}", t);
+                if t < s.duration_s() {
+                    prop_assert_eq!(seg, segment_of(t), "at {}", t);
+                }
             }
             let t0 = from * s.duration_s();
             let mut seg = s.segment_at(t0);
+            prop_assert_eq!(seg, segment_of(t0));
             for &t in times.iter().filter(|&&t| t >= t0) {
-                prop_assert_eq!(s.eval_from(&mut seg, t), s.eval(t), "at {} from {}", t, t0);
+                prop_assert_eq!(s.eval_from(&mut seg, t), expected(t), "at {} from {}", t, t0);
+            }
+            for &(t, _) in &k[..k.len() - 1] {
+                prop_assert_eq!(s.segment_at(t), segment_of(t), "at knot {}", t);
             }
             prop_assert_eq!(s.segment_at(f32::NAN), 0);
             prop_assert_eq!(s.segment_at(s.duration_s()), k.len() - 2);
