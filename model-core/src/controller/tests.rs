@@ -384,3 +384,50 @@ fn a_move_armed_counts_as_slewing_and_clearing_keeps_the_last_angle() {
     assert_eq!(c.theta_rad(), theta);
     assert_eq!(c.snapshot().theta_rad, theta);
 }
+
+/// The estimate's finite check, by IEEE 754's rules: an infinity or a NaN in the hub rate,
+/// the strain or its rate latches NON_FINITE; the largest, smallest and signed-zero finite
+/// values do not.
+#[test]
+fn the_finite_check_flags_every_infinity_and_nan_and_nothing_finite() {
+    let c = controller(SMC);
+    // A reading with no other fault: mid-range code, no fault lines.
+    let raw = RawMeasurement::default();
+    let check = |omega: f32, strain: f32, strain_rate: f32| {
+        let x = Estimate {
+            theta: 0.0,
+            omega,
+            strain,
+            strain_rate,
+        };
+        c.detect_faults(&raw, &x).contains(FaultFlags::NON_FINITE)
+    };
+    let finite = [
+        0.0,
+        -0.0,
+        1.0,
+        -3.5,
+        f32::MAX,
+        f32::MIN,
+        f32::MIN_POSITIVE,
+        1e-45,
+    ];
+    let bad = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -f32::NAN];
+    for &v in &finite {
+        // Strain within the over-strain limit, so that only the finite check can speak.
+        assert!(
+            !check(v, 0.0, v) && !check(0.0, v.clamp(-1e-3, 1e-3), 0.0),
+            "{v}"
+        );
+    }
+    for &b in &bad {
+        for &v in &finite {
+            assert!(
+                check(b, 0.0, v) && check(v, b, 0.0) && check(0.0, 0.0, b),
+                "{b} {v}"
+            );
+        }
+    }
+    // Two infinities of opposite sign do not cancel.
+    assert!(check(f32::INFINITY, 0.0, f32::NEG_INFINITY));
+}
