@@ -138,6 +138,13 @@ impl Perturbation {
         }
     }
 
+    /// The damping ratio drawn over `nominal`'s: the multiplier, or the drawn ratio's share
+    /// of the nominal one when it came from [`SweepSpec::damping_ratio`].
+    pub fn damping_scale(&self, nominal: &BeamParams) -> f64 {
+        self.damping_ratio
+            .map_or(self.damping, |r| r / nominal.damping_ratio)
+    }
+
     /// The perturbed plant parameters from `nominal`.
     pub fn apply(&self, nominal: &BeamParams) -> BeamParams {
         BeamParams {

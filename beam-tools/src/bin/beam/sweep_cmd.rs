@@ -164,12 +164,9 @@ fn run_case(
         a.plant.modes,
         &spec.settle,
     )?;
-    let damping_scale = p
-        .damping_ratio
-        .map_or(p.damping, |r| r / nominal.damping_ratio);
     let draw = json!({
         "payload_kg": p.payload_kg, "ei_scale": p.ei, "rho_scale": p.rho, "jm_scale": p.jm,
-        "friction_scale": p.friction, "damping_scale": damping_scale,
+        "friction_scale": p.friction, "damping_scale": p.damping_scale(nominal),
         "damping_ratio": p.apply(nominal).damping_ratio, "coulomb_nm": p.coulomb_nm,
         "move_deg": p.move_deg,
     });
@@ -472,8 +469,7 @@ fn write_csv(nominal: &BeamParams, cases: &[Case], w: &mut dyn Write) -> std::io
             p.rho,
             p.jm,
             p.friction,
-            p.damping_ratio
-                .map_or(p.damping, |r| r / nominal.damping_ratio),
+            p.damping_scale(nominal),
             opt(p.coulomb_nm),
             opt(p.move_deg)
         )?;
