@@ -174,10 +174,10 @@ pub fn generalized_eigenvalues<const N: usize>(k: &Mat<N>, m: &Mat<N>) -> Option
 /// Sorts a few numbers in place, ascending by `total_cmp`. The library's sort would do, but
 /// its pattern-defeating quicksort is about 8 KiB of flash on the drive for lists of at most
 /// 30 elements, where insertion sort is as fast.
-pub fn insertion_sort(v: &mut [f64]) {
+pub fn insertion_sort<T: Copy + PartialOrd>(v: &mut [T]) {
     for i in 1..v.len() {
         let mut j = i;
-        while j > 0 && v[j - 1].total_cmp(&v[j]).is_gt() {
+        while j > 0 && v[j - 1] > v[j] {
             v.swap(j - 1, j);
             j -= 1;
         }

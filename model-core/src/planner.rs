@@ -12,8 +12,10 @@
 //! scales its speed by `1/s` and its acceleration by `1/s^2` exactly (the knot velocities
 //! and accelerations come from differences of the knots), so the shortest scale follows from
 //! the peaks of one trial plan by solving a quadratic; the result is rounded up to whole
-//! milliseconds and checked again. Everything here runs outside the 1 kHz tick, in `f64`
-//! where it matters, with no allocation.
+//! milliseconds and checked again. Everything here runs outside the 1 kHz tick, with no
+//! allocation, in `f32` like the tick: the drive's FPU has no double precision, and `f32`
+//! carries a 60 s move's end in whole milliseconds exactly (the spline's knots are `f32`
+//! in any case).
 
 pub use crate::error::PlanError;
 use crate::law::Law;
@@ -25,7 +27,7 @@ use crate::spline::{Peaks, Spline};
 pub use crate::knots::{BASE_KNOTS, MAX_WAYPOINTS, PLAN_KNOTS, SHAPED_PLAN_KNOTS};
 
 /// Shortest segment between waypoints, s: one tick.
-pub const MIN_SEGMENT_S: f64 = 1e-3;
+pub const MIN_SEGMENT_S: f32 = 1e-3;
 
 /// What a planned move must keep to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,7 +50,7 @@ pub struct Limits {
     /// Viscous friction the plan allows for, N m s/rad.
     pub viscous_nms: f32,
     /// Shortest segment the planner chooses when it picks the times, s (0, a negative value
-    /// or NaN: none; `f64::max` passes over NaN). For a law
+    /// or NaN: none; `f32::max` passes over NaN). For a law
     /// that bends a reference beam through the move ([`Law::min_move_periods`]), a move
     /// much shorter than the beam's first period asks for more torque than the limit.
     pub min_segment_s: f32,
@@ -140,21 +142,21 @@ impl Limits {
     /// The least time scale `s` (times multiplied by `s`) at which a move with peaks `p` at
     /// scale 1 keeps the torque and speed limits: `I A / s^2 + b V / s + C <= F` and
     /// `V / s <= Vmax`.
-    fn least_scale(&self, p: &Peaks) -> f64 {
-        let (a, v) = (p.max_abs_acc as f64, p.max_abs_vel as f64);
-        let (i, b) = (self.inertia_kgm2 as f64, self.viscous_nms as f64);
-        let room = self.torque_budget_nm() as f64 - self.coulomb_nm as f64;
+    fn least_scale(&self, p: &Peaks) -> f32 {
+        let (a, v) = (p.max_abs_acc, p.max_abs_vel);
+        let (i, b) = (self.inertia_kgm2, self.viscous_nms);
+        let room = self.torque_budget_nm() - self.coulomb_nm;
         // With x = 1/s: i a x^2 + b v x - room <= 0, so x <= the positive root.
         let qa = i * a;
         let x = if qa > 0.0 {
-            (-b * v + libm::sqrt(b * b * v * v + 4.0 * qa * room)) / (2.0 * qa)
+            (-b * v + libm::sqrtf(b * b * v * v + 4.0 * qa * room)) / (2.0 * qa)
         } else if b * v > 0.0 {
             room / (b * v)
         } else {
-            f64::INFINITY
+            f32::INFINITY
         };
         let by_torque = 1.0 / x;
-        let by_speed = v / self.max_speed_rad_s as f64;
+        let by_speed = v / self.max_speed_rad_s;
         by_torque.max(by_speed)
     }
 }
@@ -284,10 +286,10 @@ pub fn plan_through(
     // (Indexing by `get`, here and below: no bounds-check panic on the drive's command
     // path; the waypoint count was checked above, so the `None` arms never run.)
     let n = waypoints.len() + 1;
-    let mut times = [0.0f64; PLAN_KNOTS];
+    let mut times = [0.0f32; PLAN_KNOTS];
     let mut positions = [from; PLAN_KNOTS];
     let too_many = PlanError::TooManyWaypoints { max: MAX_WAYPOINTS };
-    let (mut t_prev, mut p_prev) = (0.0f64, from);
+    let (mut t_prev, mut p_prev) = (0.0f32, from);
     for ((w, t), p) in waypoints
         .iter()
         .zip(times.iter_mut().skip(1))
@@ -295,8 +297,8 @@ pub fn plan_through(
     {
         *p = w.rad;
         *t = match w.at_s {
-            Some(t) => t as f64,
-            None => t_prev + rest_to_rest_time(limits, (w.rad - p_prev) as f64),
+            Some(t) => t,
+            None => t_prev + rest_to_rest_time(limits, w.rad - p_prev),
         };
         (t_prev, p_prev) = (*t, *p);
     }
@@ -307,16 +309,18 @@ pub fn plan_through(
         .windows(2)
         .map(|w| match w {
             [a, b] => b - a,
-            _ => f64::INFINITY,
+            _ => f32::INFINITY,
         })
-        .fold(f64::INFINITY, f64::min);
+        .fold(f32::INFINITY, f32::min);
     if !(min_gap >= MIN_SEGMENT_S) {
         return Err(PlanError::TimesNotIncreasing);
     }
-    let build = |scale: f64| -> Result<Plan, PlanError> {
+    // The plan ending at `end_s`: each knot's time scaled as `t / end * end_s`, so that the
+    // last lands on `end_s` exactly (`t * (end_s / end)` can miss it by a step of f32).
+    let build = |end_s: f32| -> Result<Plan, PlanError> {
         let mut knots = [(0.0f32, 0.0f32); PLAN_KNOTS];
         for (k, (&t, &p)) in knots.iter_mut().zip(times.iter().zip(positions.iter())) {
-            *k = ((t * scale) as f32, p);
+            *k = (if end_s == end { t } else { t / end * end_s }, p);
         }
         Plan::new(Spline::try_build(knots.get(..n).ok_or(too_many)?)?, shaper)
     };
@@ -326,7 +330,7 @@ pub fn plan_through(
     let trial: Spline<PLAN_KNOTS> = {
         let mut knots = [(0.0f32, 0.0f32); PLAN_KNOTS];
         for (k, (&t, &p)) in knots.iter_mut().zip(times.iter().zip(positions.iter())) {
-            *k = (t as f32, p);
+            *k = (t, p);
         }
         Spline::try_build(knots.get(..n).ok_or(too_many)?)?
     };
@@ -339,34 +343,34 @@ pub fn plan_through(
     // limits' shortest segment.
     let least = limits
         .least_scale(&trial)
-        .max(MIN_SEGMENT_S.max(limits.min_segment_s as f64) / min_gap);
+        .max(MIN_SEGMENT_S.max(limits.min_segment_s) / min_gap);
     // The shortest whole-millisecond end time at or above the least scale that passes the
     // check (f32 rounding can cost a millisecond).
-    let shortest = || -> Result<(f64, Plan), PlanError> {
+    let shortest = || -> Result<(f32, Plan), PlanError> {
         // A margin of 0.1 % keeps the plan off the bound's edge, where f32 rounding of the
         // rebuilt spline could tip it over.
-        let mut end_ms = libm::ceil(least * 1.001 * end * 1000.0).max(1.0);
+        let mut end_ms = libm::ceilf(least * 1.001 * end * 1000.0).max(1.0);
         for _ in 0..64 {
             // No move may last longer than MAX_MOVE_S, even at its shortest.
-            if end_ms > 1000.0 * MAX_MOVE_S as f64 {
+            if end_ms > 1000.0 * MAX_MOVE_S {
                 return Err(PlanError::TooLong { max_s: MAX_MOVE_S });
             }
-            let plan = build(end_ms / 1000.0 / end)?;
+            let plan = build(end_ms / 1000.0)?;
             if limits.admits(&plan.shaped.peaks()) {
                 return Ok((end_ms / 1000.0, plan));
             }
-            end_ms = libm::ceil(end_ms * 1.01);
+            end_ms = libm::ceilf(end_ms * 1.01);
         }
         Err(PlanError::Unplannable)
     };
-    let scale = match time_s {
-        Some(t) if t > 0.0 => t as f64 / end,
+    let end_s = match time_s {
+        Some(t) if t > 0.0 => t,
         Some(_) => return Err(PlanError::TimesNotIncreasing),
-        None if given => 1.0,
+        None if given => end,
         None => return shortest().map(|(_, plan)| plan),
     };
-    if scale * min_gap >= MIN_SEGMENT_S {
-        let plan = build(scale)?;
+    if end_s / end * min_gap >= MIN_SEGMENT_S {
+        let plan = build(end_s)?;
         let peaks = plan.shaped.peaks();
         if limits.admits(&peaks) {
             return Ok(plan);
@@ -374,25 +378,24 @@ pub fn plan_through(
         out_of_range(&peaks, limits)?;
     }
     let (needs_s, _) = shortest()?;
-    Err(PlanError::TooFast {
-        needs_s: needs_s as f32,
-    })
+    Err(PlanError::TooFast { needs_s })
 }
 
 /// The shortest rest-to-rest quintic over `distance` within the torque and speed limits, s
 /// (peak acceleration `10 / sqrt(3) D / T^2`, peak speed `15/8 D / T`); at least 10 ms.
-fn rest_to_rest_time(limits: &Limits, distance: f64) -> f64 {
-    let d = libm::fabs(distance);
+fn rest_to_rest_time(limits: &Limits, distance: f32) -> f32 {
+    let d = libm::fabsf(distance);
     let unit = Peaks {
         min_pos: 0.0,
         max_pos: 0.0,
-        max_abs_vel: (1.875 * d) as f32,
-        max_abs_acc: (10.0 / libm::sqrt(3.0) * d) as f32,
+        max_abs_vel: 1.875 * d,
+        // 10 / sqrt(3) in f32.
+        max_abs_acc: 5.773_503 * d,
     };
     limits
         .least_scale(&unit)
         .max(10.0 * MIN_SEGMENT_S)
-        .max(limits.min_segment_s as f64)
+        .max(limits.min_segment_s)
 }
 
 /// How far the bound on a move's peak position may pass the range's end, rad (0.09 deg).
@@ -443,7 +446,7 @@ pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanEr
     let at = at_s.max(0.0);
     let r = base.eval(at);
     let decel = (limits.torque_budget_nm() - limits.coulomb_nm) / limits.inertia_kgm2;
-    let mut t = (2.0 * libm::fabsf(r.vel) / decel).max(10.0 * MIN_SEGMENT_S as f32);
+    let mut t = (2.0 * libm::fabsf(r.vel) / decel).max(10.0 * MIN_SEGMENT_S);
     let states = base.states::<BASE_KNOTS>();
     let kept = base.knot_times().take_while(|&k| k < at).count();
     while t < 60.0 {
@@ -684,12 +687,12 @@ mod tests {
             .shaped;
         let shaped = plan_move(0.0, 1.0, Some(0.3), &zvd, &l).unwrap().shaped;
         let imp = zvd.impulses().unwrap();
-        assert!((shaped.duration_s() as f64 - (0.3 + imp.duration_s())).abs() < 1e-5);
+        assert!((shaped.duration_s() - (0.3 + imp.duration_s())).abs() < 1e-5);
         for k in 0..=100 {
             let t = k as f32 * shaped.duration_s() / 100.0;
             let sum: f64 = imp
                 .iter()
-                .map(|(a, ti)| a * base.eval(t - ti as f32).pos as f64)
+                .map(|(a, ti)| a as f64 * base.eval(t - ti).pos as f64)
                 .sum();
             assert!((shaped.eval(t).pos as f64 - sum).abs() < 1e-5, "t {t}");
         }
@@ -724,7 +727,7 @@ mod tests {
         let s = &stopped.shaped;
         assert!(s.end() < 90.0 * DEG && s.end() > -90.0 * DEG, "{}", s.end());
         assert!(l.admits(&s.peaks()) || s.peaks().max_pos > l.max_rad);
-        let len = zvd.impulses().unwrap().duration_s() as f32;
+        let len = zvd.impulses().unwrap().duration_s();
         assert!(s.duration_s() >= at + len, "{}", s.duration_s());
         assert!(s.duration_s() < plan.shaped.duration_s());
         // Too late to stop short of the target: the move itself is the stop.

@@ -268,6 +268,7 @@ impl<const K: usize> Spline<K> {
     /// turning points solve a quadratic); velocity and position are sampled
     /// [`PEAK_SAMPLES`] times per segment and widened by the most they can rise between a
     /// turning point and the nearest sample (from the exact jerk and acceleration bounds).
+    /// Worked out in `f32`, each bound widened by 16 of its `f32` steps against rounding.
     /// For planning, outside the tick.
     pub fn peaks(&self) -> Peaks {
         peaks_of(&self.segments, self.start, self.end)
@@ -283,20 +284,19 @@ fn peaks_of(segments: &[Segment], start: f32, end: f32) -> Peaks {
         max_abs_acc: 0.0,
     };
     for seg in segments {
-        let d = seg.d.map(|x| x as f64);
-        let h = seg.h_s as f64;
+        let (d, h) = (&seg.d, seg.h_s);
         // p''(tau) = 2 d2 + 6 d3 tau + 12 d4 tau^2 + 20 d5 tau^3; its turning points
         // solve 6 d3 + 24 d4 tau + 60 d5 tau^2 = 0.
-        let acc = |t: f64| {
+        let acc = |t: f32| {
             (2.0 * d[2] + t * (6.0 * d[3] + t * (12.0 * d[4] + t * 20.0 * d[5]))) / (h * h)
         };
-        let mut a_max = libm::fabs(acc(0.0)).max(libm::fabs(acc(1.0)));
+        let mut a_max = libm::fabsf(acc(0.0)).max(libm::fabsf(acc(1.0)));
         let (qa, qb, qc) = (60.0 * d[5], 24.0 * d[4], 6.0 * d[3]);
-        let mut roots = [f64::NAN; 2];
+        let mut roots = [f32::NAN; 2];
         if qa != 0.0 {
             let disc = qb * qb - 4.0 * qa * qc;
             if disc >= 0.0 {
-                let r = libm::sqrt(disc);
+                let r = libm::sqrtf(disc);
                 roots = [(-qb + r) / (2.0 * qa), (-qb - r) / (2.0 * qa)];
             }
         } else if qb != 0.0 {
@@ -304,43 +304,50 @@ fn peaks_of(segments: &[Segment], start: f32, end: f32) -> Peaks {
         }
         for t in roots {
             if (0.0..=1.0).contains(&t) {
-                a_max = a_max.max(libm::fabs(acc(t)));
+                a_max = a_max.max(libm::fabsf(acc(t)));
             }
         }
         // The jerk is a quadratic in tau, extreme at the ends or at its vertex.
-        let jerk = |t: f64| (6.0 * d[3] + t * (24.0 * d[4] + t * 60.0 * d[5])) / (h * h * h);
-        let mut j_max = libm::fabs(jerk(0.0)).max(libm::fabs(jerk(1.0)));
+        let jerk = |t: f32| (6.0 * d[3] + t * (24.0 * d[4] + t * 60.0 * d[5])) / (h * h * h);
+        let mut j_max = libm::fabsf(jerk(0.0)).max(libm::fabsf(jerk(1.0)));
         if d[5] != 0.0 {
             let vertex = -24.0 * d[4] / (120.0 * d[5]);
             if (0.0..=1.0).contains(&vertex) {
-                j_max = j_max.max(libm::fabs(jerk(vertex)));
+                j_max = j_max.max(libm::fabsf(jerk(vertex)));
             }
         }
-        let vel = |t: f64| {
+        let vel = |t: f32| {
             (d[1] + t * (2.0 * d[2] + t * (3.0 * d[3] + t * (4.0 * d[4] + t * 5.0 * d[5])))) / h
         };
-        let pos = |t: f64| d[0] + t * (d[1] + t * (d[2] + t * (d[3] + t * (d[4] + t * d[5]))));
+        let pos = |t: f32| d[0] + t * (d[1] + t * (d[2] + t * (d[3] + t * (d[4] + t * d[5]))));
         // An extreme inside the segment is a turning point (zero derivative), so from
         // there to the nearest sample, at most dt/2 away, the value changes by at most
         // (bound on its second derivative) * (dt/2)^2 / 2; an extreme at an end is a
         // sample.
-        let dt = h / PEAK_SAMPLES as f64;
-        let (mut v_max, mut lo, mut hi) = (0.0f64, f64::INFINITY, f64::NEG_INFINITY);
+        let dt = h / PEAK_SAMPLES as f32;
+        let (mut v_max, mut lo, mut hi) = (0.0f32, f32::INFINITY, f32::NEG_INFINITY);
         for i in 0..=PEAK_SAMPLES {
-            let t = i as f64 / PEAK_SAMPLES as f64;
-            v_max = v_max.max(libm::fabs(vel(t)));
+            let t = i as f32 / PEAK_SAMPLES as f32;
+            v_max = v_max.max(libm::fabsf(vel(t)));
             let x = pos(t);
             lo = lo.min(x);
             hi = hi.max(x);
         }
         let v_bound = v_max + j_max * dt * dt / 8.0;
         let p_slack = a_max * dt * dt / 8.0;
-        p.max_abs_acc = p.max_abs_acc.max(a_max as f32);
-        p.max_abs_vel = p.max_abs_vel.max(v_bound as f32);
-        p.min_pos = p.min_pos.min((lo - p_slack) as f32);
-        p.max_pos = p.max_pos.max((hi + p_slack) as f32);
+        p.max_abs_acc = p.max_abs_acc.max(widen(a_max));
+        p.max_abs_vel = p.max_abs_vel.max(widen(v_bound));
+        p.min_pos = p.min_pos.min(-widen(-(lo - p_slack)));
+        p.max_pos = p.max_pos.max(widen(hi + p_slack));
     }
     p
+}
+
+/// `x` moved up by 16 of its own `f32` steps: the bounds are worked out in `f32` (the drive
+/// has no double-precision hardware), where the few roundings of a polynomial's value and of
+/// a turning point's place could leave a bound a step or two below the value it bounds.
+fn widen(x: f32) -> f32 {
+    x + libm::fabsf(x) * (16.0 * f32::EPSILON)
 }
 
 /// Samples per segment behind [`Spline::peaks`]' velocity and position bounds.
