@@ -171,16 +171,35 @@ pub fn generalized_eigenvalues<const N: usize>(k: &Mat<N>, m: &Mat<N>) -> Option
     Some(sym_eigenvalues(&c))
 }
 
-/// Sorts a few numbers in place, ascending by `total_cmp`. The library's sort would do, but
-/// its pattern-defeating quicksort is about 8 KiB of flash on the drive for lists of at most
-/// 30 elements, where insertion sort is as fast.
-pub fn insertion_sort<T: Copy + PartialOrd>(v: &mut [T]) {
+/// Sorts a few numbers in place, ascending by `total_cmp` (NaN last). The library's sort
+/// would do, but its pattern-defeating quicksort is about 8 KiB of flash on the drive for
+/// lists of at most 30 elements, where insertion sort is as fast.
+pub fn insertion_sort<T: TotalOrder>(v: &mut [T]) {
     for i in 1..v.len() {
         let mut j = i;
-        while j > 0 && v[j - 1] > v[j] {
+        while j > 0 && v[j - 1].total_after(&v[j]) {
             v.swap(j - 1, j);
             j -= 1;
         }
+    }
+}
+
+/// The floats [`insertion_sort`] sorts: `f64` (the model's eigenvalues) and `f32` (the
+/// drive's shaper breaks), each by its `total_cmp`.
+pub trait TotalOrder: Copy {
+    /// `self` comes after `other` in IEEE 754's total order.
+    fn total_after(&self, other: &Self) -> bool;
+}
+
+impl TotalOrder for f64 {
+    fn total_after(&self, other: &Self) -> bool {
+        self.total_cmp(other).is_gt()
+    }
+}
+
+impl TotalOrder for f32 {
+    fn total_after(&self, other: &Self) -> bool {
+        self.total_cmp(other).is_gt()
     }
 }
 
