@@ -75,7 +75,7 @@ fn observer_designs() -> String {
         // for the gains scheduled there: mixing designs made a whole row apart (25 g) cost
         // the beam a fifth of a second of settling between them.
         let rows = rows_for(kind);
-        for payload_kg in PLANT.first_hz.iter().map(|&(p, _)| p as f32) {
+        for payload_kg in PLANT.first_hz.iter().map(|&(p, _)| p) {
             let Some(law) = scheduled_law(rows, kind, payload_kg) else {
                 break;
             };

@@ -9,57 +9,65 @@
 //! over the payload range a gain table covers. The build computes it on the host from the
 //! table's `[plant]` and compiles it in, so the drive builds nothing at start-up, and a
 //! payload set at run time costs a few dozen multiplications.
+//!
+//! Both are `f32`, the drive's own precision: rounded once from the `f64` model, and updated
+//! for a payload in `f32`, so the drive links no software floating point for them.
 
 use crate::beam::BeamParams;
 use crate::linalg;
 use crate::modal::{ModalModel, MAX_MODES};
 
-/// The plant at one payload: what the laws and the planner read of the modal model, `f64`
-/// (they fold it into their own `f32` constants once). Vectors run over the model's modes
+/// `a . b`, summed in order.
+fn dot(a: &[f32; MAX_MODES], b: &[f32; MAX_MODES]) -> f32 {
+    a.iter().zip(b).map(|(a, b)| a * b).sum()
+}
+
+/// The plant at one payload: what the laws and the planner read of the modal model, in
+/// `f32` (they fold it into their own constants once). Vectors run over the model's modes
 /// and are zero past them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlantPoint {
     /// The payload (tip mass) these numbers are for, kg.
-    pub payload_kg: f64,
+    pub payload_kg: f32,
     /// The drive's torque limit, N m.
-    pub torque_limit_nm: f64,
+    pub torque_limit_nm: f32,
     /// Viscous hub friction, N m s/rad.
-    pub viscous_nms: f64,
+    pub viscous_nms: f32,
     /// Coulomb hub friction, N m.
-    pub coulomb_nm: f64,
+    pub coulomb_nm: f32,
     /// Rigid hub-plus-beam inertia Mtt, kg m^2.
-    pub mtt: f64,
+    pub mtt: f32,
     /// Effective hub inertia with the beam free to flex, `Mtt - h' Mqq^-1 h`, kg m^2.
-    pub jeff: f64,
+    pub jeff: f32,
     /// Root strain per unit modal coordinate, e_i.
-    pub root_strain_coef: [f64; MAX_MODES],
+    pub root_strain_coef: [f32; MAX_MODES],
     /// `Mqq^-1 h`.
-    pub minv_h: [f64; MAX_MODES],
+    pub minv_h: [f32; MAX_MODES],
     /// `Mqq^-1 e` (Mqq is symmetric: also `e' Mqq^-1`).
-    pub minv_e: [f64; MAX_MODES],
+    pub minv_e: [f32; MAX_MODES],
     /// First column of the modal stiffness Kqq, N/m.
-    pub kqq_col0: [f64; MAX_MODES],
+    pub kqq_col0: [f32; MAX_MODES],
     /// First column of the modal damping Cq, N s/m.
-    pub cq_col0: [f64; MAX_MODES],
+    pub cq_col0: [f32; MAX_MODES],
     /// First column of `S = Mqq + 2 G`, kg.
-    pub s_col0: [f64; MAX_MODES],
+    pub s_col0: [f32; MAX_MODES],
 }
 
 impl PlantPoint {
     /// The numbers of `model`, at the payload it was built with.
     pub fn of<const N: usize>(model: &ModalModel<N>) -> Self {
         let p = model.beam.params();
-        let pad = |v: [f64; N]| -> [f64; MAX_MODES] {
-            core::array::from_fn(|i| if i < N { v[i] } else { 0.0 })
+        let pad = |v: [f64; N]| -> [f32; MAX_MODES] {
+            core::array::from_fn(|i| if i < N { v[i] as f32 } else { 0.0 })
         };
         let col0 = |a: &linalg::Mat<N>| pad(core::array::from_fn(|j| a[j][0]));
         Self {
-            payload_kg: p.tip_mass_kg,
-            torque_limit_nm: p.torque_limit_nm,
-            viscous_nms: p.viscous_nms,
-            coulomb_nm: p.coulomb_nm,
-            mtt: model.mtt,
-            jeff: model.jeff,
+            payload_kg: p.tip_mass_kg as f32,
+            torque_limit_nm: p.torque_limit_nm as f32,
+            viscous_nms: p.viscous_nms as f32,
+            coulomb_nm: p.coulomb_nm as f32,
+            mtt: model.mtt as f32,
+            jeff: model.jeff as f32,
             root_strain_coef: pad(model.root_strain_coef),
             minv_h: pad(linalg::mat_vec(&model.mqq_inv, &model.h)),
             minv_e: pad(linalg::mat_vec(&model.mqq_inv, &model.root_strain_coef)),
@@ -71,19 +79,19 @@ impl PlantPoint {
 
     /// gamma = e' Mqq^-1 h: how much a hub acceleration shows in the root strain of the held
     /// beam.
-    pub fn strain_coupling(&self) -> f64 {
-        linalg::dot(&self.root_strain_coef, &self.minv_h)
+    pub fn strain_coupling(&self) -> f32 {
+        dot(&self.root_strain_coef, &self.minv_h)
     }
 
     /// Smallest admissible `1 - c gamma` of a strain blend `y = theta + c eps_root`: the
     /// blended output's input gain relative to the hub's. Below it the surface's control
     /// direction nearly vanishes (or flips).
-    pub const MIN_BLEND_RATIO: f64 = 0.2;
+    pub const MIN_BLEND_RATIO: f32 = 0.2;
 
     /// `1 - c gamma` for the strain blend `c` (rad per unit strain), if at least
     /// [`Self::MIN_BLEND_RATIO`]: the one rule for a blend, which the gain table's build and
     /// the laws both apply.
-    pub fn blend_ratio(&self, c: f64) -> Option<f64> {
+    pub fn blend_ratio(&self, c: f32) -> Option<f32> {
         let ratio = 1.0 - c * self.strain_coupling();
         (ratio >= Self::MIN_BLEND_RATIO).then_some(ratio)
     }
@@ -100,9 +108,10 @@ impl<const N: usize> From<&ModalModel<N>> for PlantPoint {
 ///
 /// A tip mass `p` enters the model as a rank-one term: `Mqq(p) = Mqq + p u u'` with
 /// `u_i = phi_i(L)`, `h(p) = h + p (r + L) u`, `Mtt(p) = Mtt + p (r + L)^2`, and `S` affinely.
-/// So [`Plant::at`] computes the plant at any payload exactly, with no integral and no
+/// So [`Plant::at`] computes the plant at any payload exactly (to `f32` rounding), with no integral and no
 /// matrix factorisation: by the Sherman-Morrison formula, with `w = Mqq^-1 u`,
-/// `Mqq(p)^-1 x = Mqq^-1 x - k w (w'x)` and `k = p / (1 + p u'w)`. Only the first clamped
+/// `Mqq(p)^-1 x = Mqq^-1 x - k w (w'x)` and `k = p / (1 + p u'w)`, and so
+/// `Jeff(p) = Jeff + p (r + L - w'h)^2 / (1 + p u'w)`. Only the first clamped
 /// frequency (which sets the first mode's damping term) is an eigenvalue; it is tabulated
 /// and `1/f^2` interpolated between grid points (exact for one mode, where `1/f^2` is affine
 /// in the payload).
@@ -114,30 +123,34 @@ pub struct Plant {
     pub modes: usize,
     /// The plant at no payload.
     pub base: PlantPoint,
+    /// The payload's arm, hub radius plus beam length, m.
+    pub arm_m: f32,
+    /// The beam's damping ratio (the first mode's damping term is rebuilt from it).
+    pub damping_ratio: f32,
     /// The coupling `h` at no payload.
-    pub h: [f64; MAX_MODES],
+    pub h: [f32; MAX_MODES],
     /// The mode shapes at the tip, `u_i = phi_i(L)`.
-    pub tip_shape: [f64; MAX_MODES],
+    pub tip_shape: [f32; MAX_MODES],
     /// `w = Mqq^-1 u` at no payload.
-    pub tip_minv: [f64; MAX_MODES],
+    pub tip_minv: [f32; MAX_MODES],
     /// How the first column of `S` grows with the payload, per kg.
-    pub s_col0_per_kg: [f64; MAX_MODES],
+    pub s_col0_per_kg: [f32; MAX_MODES],
     /// `Mqq[0][0]` at no payload, kg.
-    pub mqq00: f64,
+    pub mqq00: f32,
     /// The first clamped frequency, Hz, at payloads (kg) from 0 to the heaviest the drive
     /// accepts (the table's heaviest row), sorted.
-    pub first_hz: &'static [(f64, f64)],
+    pub first_hz: &'static [(f32, f32)],
 }
 
 impl Plant {
     /// The heaviest payload the plant covers, kg: the end of its frequency table.
-    pub fn max_payload_kg(&self) -> f64 {
+    pub fn max_payload_kg(&self) -> f32 {
         self.first_hz.last().map_or(0.0, |&(p, _)| p)
     }
 
     /// The plant at `payload_kg` (see [`Plant`]); `None` outside 0 to
     /// [`Plant::max_payload_kg`] (or NaN).
-    pub fn at(&self, payload_kg: f64) -> Option<PlantPoint> {
+    pub fn at(&self, payload_kg: f32) -> Option<PlantPoint> {
         let p = payload_kg;
         if !(p >= 0.0 && p <= self.max_payload_kg()) {
             return None;
@@ -147,23 +160,28 @@ impl Plant {
         }
         let b = &self.base;
         let u = &self.tip_shape;
-        let arm = self.params.hub_radius_m + self.params.length_m;
+        let arm = self.arm_m;
         let mtt = b.mtt + p * arm * arm;
-        let h: [f64; MAX_MODES] = core::array::from_fn(|i| self.h[i] + p * arm * u[i]);
+        let h: [f32; MAX_MODES] = core::array::from_fn(|i| self.h[i] + p * arm * u[i]);
         // Sherman-Morrison (see [`Plant`]); Mqq^-1 h(p) = Mqq^-1 h + p (r + L) w.
         let w = &self.tip_minv;
-        let k = p / (1.0 + p * linalg::dot(u, w));
-        let (wh, we) = (linalg::dot(w, &h), linalg::dot(w, &b.root_strain_coef));
-        let minv_h: [f64; MAX_MODES] =
+        let d = 1.0 + p * dot(u, w);
+        let k = p / d;
+        let (wh, we) = (dot(w, &h), dot(w, &b.root_strain_coef));
+        // Jeff(p) = Mtt(p) - h(p)' Mqq(p)^-1 h(p) expands to Jeff + p (r + L - w'h)^2 / d:
+        // the same number without the cancellation of the difference (Mtt is about six
+        // times Jeff, which would cost f32 nearly three bits).
+        let lever = arm - dot(w, &self.h);
+        let minv_h: [f32; MAX_MODES] =
             core::array::from_fn(|i| b.minv_h[i] + p * arm * w[i] - k * w[i] * wh);
         let f1 = self.first_hz_at(p)?;
         let mut cq_col0 = [0.0; MAX_MODES];
         let mqq00 = self.mqq00 + p * u[0] * u[0];
-        cq_col0[0] = 2.0 * self.params.damping_ratio * (2.0 * core::f64::consts::PI * f1) * mqq00;
+        cq_col0[0] = 2.0 * self.damping_ratio * (2.0 * core::f32::consts::PI * f1) * mqq00;
         Some(PlantPoint {
             payload_kg: p,
             mtt,
-            jeff: mtt - linalg::dot(&h, &minv_h),
+            jeff: b.jeff + p * lever * lever / d,
             minv_h,
             minv_e: core::array::from_fn(|i| b.minv_e[i] - k * w[i] * we),
             cq_col0,
@@ -174,7 +192,7 @@ impl Plant {
 
     /// The first clamped frequency at payload `p` (kg), Hz: `1/f^2` interpolated on the
     /// table; `None` outside it.
-    pub fn first_hz_at(&self, p: f64) -> Option<f64> {
+    pub fn first_hz_at(&self, p: f32) -> Option<f32> {
         let mut below = self.first_hz.first()?;
         for above in self.first_hz {
             if p == above.0 {
@@ -183,7 +201,7 @@ impl Plant {
             if p < above.0 {
                 let f = (p - below.0) / (above.0 - below.0);
                 let (a, b) = (1.0 / (below.1 * below.1), 1.0 / (above.1 * above.1));
-                return Some(libm::sqrt(1.0 / (a + (b - a) * f)));
+                return Some(libm::sqrtf(1.0 / (a + (b - a) * f)));
             }
             below = above;
         }

@@ -232,7 +232,7 @@ fn every_smc_i_row_switches_hard_enough_to_hold_the_stated_load() {
         };
         rows += 1;
         let m = model(row.payload_kg as f64);
-        let jc = m.jeff / (1.0 - g.c as f64 * model_core::law::strain_coupling(&m));
+        let jc = m.jeff / (1.0 - g.c as f64 * model_core::law::strain_coupling(&m) as f64);
         assert!(
             jc * g.a as f64 >= LOAD_NM,
             "smc-i at {} kg: Jc A = {} N m",

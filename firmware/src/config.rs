@@ -45,7 +45,7 @@ pub const DESIGNS: &[DesignRow] = designs_for(CONTROLLER);
 /// `None` outside the plant's payloads. Without the `observer` feature an observer law is
 /// still refused when it is built.
 pub fn designed_plant(kind: LawKind, payload_kg: f32, rows: &[DesignRow]) -> Option<DesignedPlant> {
-    let point = PLANT.at(payload_kg as f64)?;
+    let point = PLANT.at(payload_kg)?;
     Some(DesignedPlant {
         point,
         design: schedule_design(rows, kind, payload_kg),
@@ -136,13 +136,13 @@ fn controller_with(
     #[cfg(not(feature = "observer"))]
     let (law, plant) = {
         let _ = designs;
-        let plant = PLANT.at(payload_kg as f64).ok_or(BuildError::Payload)?;
+        let plant = PLANT.at(payload_kg).ok_or(BuildError::Payload)?;
         let law = ControlLaw::try_build(gains, plant).map_err(BuildError::Gains)?;
         (law, plant)
     };
     let settings = ControllerSettings {
         theta_home_rad: SLEW_FROM_RAD,
-        torque_limit_nm: plant.torque_limit_nm as f32,
+        torque_limit_nm: plant.torque_limit_nm,
         ..ControllerSettings::default()
     };
     Controller::try_build(settings, law, first).map_err(BuildError::Config)

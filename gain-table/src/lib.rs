@@ -391,14 +391,16 @@ fn check_against_plant(r: &Row, plant: &PlantSpec) -> Result<(), (&'static str, 
     let point = plant
         .point(r.payload_kg as f32 as f64)
         .map_err(|(field, why)| (field.unwrap_or("payload_kg"), why))?;
-    match point.blend_ratio(c) {
+    // As the drive holds the gain, in f32.
+    let c32 = c as f32;
+    match point.blend_ratio(c32) {
         Some(_) => Ok(()),
         None => Err((
             spec.name,
             format!(
                 "{c}: the blend leaves 1 - c gamma = {:.3} of the hub's input gain on this \
                  plant (at least {} is needed)",
-                1.0 - c * point.strain_coupling(),
+                1.0 - c32 * point.strain_coupling(),
                 PlantPoint::MIN_BLEND_RATIO
             ),
         )),

@@ -175,25 +175,28 @@ impl PlantSpec {
     fn plant_n<const N: usize>(&self, rows: &[Row]) -> Result<PlantParts, PlantError> {
         let payloads = Self::payloads(rows);
         let m0 = self.model::<N>(0.0)?;
-        // S is affine in the payload: its slope is the difference at 1 kg.
-        let s1 = PlantPoint::of(&self.model::<N>(1.0)?).s_col0;
+        // S is affine in the payload: its slope is the difference at 1 kg (taken in f64,
+        // then rounded once, like every number the drive gets).
+        let m1 = self.model::<N>(1.0)?;
         let base = PlantPoint::of(&m0);
-        let pad = |v: &[f64; N]| -> [f64; MAX_MODES] {
-            core::array::from_fn(|i| if i < N { v[i] } else { 0.0 })
+        let pad = |v: &[f64; N]| -> [f32; MAX_MODES] {
+            core::array::from_fn(|i| if i < N { v[i] as f32 } else { 0.0 })
         };
         let mut first_hz = Vec::with_capacity(payloads.len());
         for &p in &payloads {
-            first_hz.push((p, self.model::<N>(p)?.clamped_hz[0]));
+            first_hz.push((p as f32, self.model::<N>(p)?.clamped_hz[0] as f32));
         }
         let plant = Plant {
             params: self.params,
             modes: N,
             base,
+            arm_m: (self.params.hub_radius_m + self.params.length_m) as f32,
+            damping_ratio: self.params.damping_ratio as f32,
             h: pad(&m0.h),
             tip_shape: pad(&m0.tip_coef),
             tip_minv: pad(&beam_model::linalg::mat_vec(&m0.mqq_inv, &m0.tip_coef)),
-            s_col0_per_kg: core::array::from_fn(|i| s1[i] - base.s_col0[i]),
-            mqq00: m0.mqq[0][0],
+            s_col0_per_kg: pad(&core::array::from_fn(|i| m1.s[i][0] - m0.s[i][0])),
+            mqq00: m0.mqq[0][0] as f32,
             first_hz: &[],
         };
         Ok(PlantParts { plant, first_hz })
@@ -207,7 +210,7 @@ pub struct PlantParts {
     /// The plant, `first_hz` empty.
     pub plant: Plant,
     /// Its `first_hz`.
-    pub first_hz: Vec<(f64, f64)>,
+    pub first_hz: Vec<(f32, f32)>,
 }
 
 impl PlantParts {
@@ -271,10 +274,13 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
         p.torque_limit_nm
     ));
     out.push_str(&format!(
-        "    modes: {},\n    base: {},\n    h: {:?},\n    tip_shape: {:?},\n    tip_minv: {:?},\n    \
-         s_col0_per_kg: {:?},\n    mqq00: {:?},\n    first_hz: &{:?},\n}};\n",
+        "    modes: {},\n    base: {},\n    arm_m: {:?},\n    damping_ratio: {:?},\n    h: {:?},\n    \
+         tip_shape: {:?},\n    tip_minv: {:?},\n    s_col0_per_kg: {:?},\n    mqq00: {:?},\n    \
+         first_hz: &{:?},\n}};\n",
         plant.modes,
         point_source(&plant.base),
+        plant.arm_m,
+        plant.damping_ratio,
         plant.h,
         plant.tip_shape,
         plant.tip_minv,
@@ -292,7 +298,7 @@ mod tests {
     /// The largest relative difference between two points' numbers.
     fn rel_diff(a: &PlantPoint, b: &PlantPoint) -> f64 {
         assert_eq!(a.payload_kg, b.payload_kg);
-        let scalars = [(a.mtt, b.mtt), (a.jeff, b.jeff)];
+        let scalars = [(a.mtt, b.mtt), (a.jeff, b.jeff)].map(|(x, y)| (x as f64, y as f64));
         let vectors = [
             (a.root_strain_coef, b.root_strain_coef),
             (a.minv_h, b.minv_h),
@@ -306,9 +312,9 @@ mod tests {
             .map(|(x, y)| (x - y).abs() / y.abs())
             .fold(0.0, f64::max);
         for (x, y) in vectors {
-            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for (u, v) in x.iter().zip(&y) {
-                worst = worst.max((u - v).abs() / scale);
+            let scale = y.iter().fold(0.0f64, |m, &v| m.max((v as f64).abs()));
+            for (&u, &v) in x.iter().zip(&y) {
+                worst = worst.max((u as f64 - v as f64).abs() / scale);
             }
         }
         worst
@@ -343,30 +349,38 @@ mod tests {
         for modes in 1..=4 {
             let spec = PlantSpec::preset(Preset::Aluminium, modes);
             let plant = spec.plant(&rows).unwrap().leak();
-            assert_eq!(plant.max_payload_kg(), 0.05f32 as f64);
+            assert_eq!(plant.max_payload_kg(), 0.05f32);
             let (mut exact, mut between): (f64, f64) = (0.0, 0.0);
             for pair in plant.first_hz.windows(2) {
                 let (p, q) = (pair[0].0, pair[1].0);
                 let mid = 0.5 * (p + q);
-                exact = exact.max(rel_diff(&plant.at(p).unwrap(), &spec.point(p).unwrap()));
-                between = between.max(rel_diff(&plant.at(mid).unwrap(), &spec.point(mid).unwrap()));
+                let model_at = |p: f32| spec.point(p as f64).unwrap();
+                exact = exact.max(rel_diff(&plant.at(p).unwrap(), &model_at(p)));
+                between = between.max(rel_diff(&plant.at(mid).unwrap(), &model_at(mid)));
             }
             assert_eq!(
                 plant.at(0.0),
                 Some(spec.point(0.0).unwrap()),
                 "{modes} modes"
             );
-            // Rounding only: the mass matrices are affine in the payload.
-            assert!(exact < 1e-12, "{modes} modes: {exact:e} on the table");
-            // The first frequency interpolated as 1/f^2 every 5 g: exact for one mode; for
-            // more, the first mode's damping term it sets is within 5e-5 (3.0e-5 measured
-            // for the aluminium beam, far inside what a damping ratio is known to).
-            let limit = if modes == 1 { 1e-12 } else { 5e-5 };
+            // Rounding only: the mass matrices are affine in the payload. The compiled
+            // numbers are f32 (to 6e-8) and the update is a few f32 operations on each;
+            // 4 steps of f32 (4.8e-7) bound it (2.0e-7 measured).
+            let f32_steps = 4.0 * f32::EPSILON as f64;
+            assert!(exact < f32_steps, "{modes} modes: {exact:e} on the table");
+            // The first frequency interpolated as 1/f^2 every 5 g: exact for one mode (to
+            // the same rounding); for more, the first mode's damping term it sets is within
+            // 5e-5 (3.0e-5 measured for the aluminium beam, far inside what a damping ratio
+            // is known to).
+            let limit = if modes == 1 { f32_steps } else { 5e-5 };
             assert!(between < limit, "{modes} modes: {between:e} between");
             // Outside the range there is no plant.
             assert_eq!(plant.at(-1e-9), None);
-            assert_eq!(plant.at(plant.max_payload_kg() + 1e-9), None);
-            assert_eq!(plant.at(f64::NAN), None);
+            assert_eq!(
+                plant.at(plant.max_payload_kg() * (1.0 + f32::EPSILON)),
+                None
+            );
+            assert_eq!(plant.at(f32::NAN), None);
         }
     }
 }

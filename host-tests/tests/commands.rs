@@ -372,7 +372,7 @@ fn the_stated_range_is_the_real_one_and_moves_have_a_longest_time() {
                 time_s: Some(model_core::planner::MAX_MOVE_S + 1.0),
             }),
             Step::Send(Command::SetPayload {
-                kg: model_core::gains::PLANT.max_payload_kg() as f32 + 0.01,
+                kg: model_core::gains::PLANT.max_payload_kg() + 0.01,
             }),
             Step::Send(Command::Status),
         ],

@@ -404,7 +404,7 @@ fn configure(
     kind: LawKind,
     payload_kg: f32,
 ) -> Result<(ControlLaw, Shaper, Limits), SetupError> {
-    let point = plant.at(payload_kg as f64).ok_or(SetupError::Payload)?;
+    let point = plant.at(payload_kg).ok_or(SetupError::Payload)?;
     let gains = scheduled_law(table, kind, payload_kg).ok_or(SetupError::NoGains)?;
     #[cfg(feature = "observer")]
     let law = ControlLaw::try_build(
@@ -428,10 +428,10 @@ fn configure(
     // to spare for this).
     #[cfg(feature = "observer")]
     {
-        let periods = gains.min_move_periods() as f64;
+        let periods = gains.min_move_periods();
         if periods > 0.0 {
-            if let Some(hz) = plant.first_hz_at(payload_kg as f64).filter(|&hz| hz > 0.0) {
-                limits.min_segment_s = (periods / hz) as f32;
+            if let Some(hz) = plant.first_hz_at(payload_kg).filter(|&hz| hz > 0.0) {
+                limits.min_segment_s = periods / hz;
             }
         }
     }
@@ -508,7 +508,7 @@ mod tests {
         let (c, ctl) = drive();
         let snap = ctl.snapshot();
         let plant = &crate::gains::PLANT;
-        let heaviest = plant.max_payload_kg() as f32;
+        let heaviest = plant.max_payload_kg();
         for kg in [0.6 * heaviest, heaviest] {
             let Ok(Action::SetPayload(s)) = c.prepare(&Command::SetPayload { kg }, &snap) else {
                 panic!("{kg} kg refused")

@@ -383,13 +383,13 @@ impl LawPlant for PlantPoint {
 
 /// gamma = e' Mqq^-1 h, how much a hub acceleration shows in the root strain of the held
 /// beam: the blended output y = theta + c eps_root has the input gain (1 - c gamma) / Jeff.
-pub fn strain_coupling(plant: impl Into<PlantPoint>) -> f64 {
+pub fn strain_coupling(plant: impl Into<PlantPoint>) -> f32 {
     plant.into().strain_coupling()
 }
 
 /// `1 - c gamma`, refused below [`PlantPoint::MIN_BLEND_RATIO`], where the blend would take
 /// the output's control direction away.
-fn input_gain_ratio(c: f64, m: &PlantPoint) -> Result<f64, ParamError> {
+fn input_gain_ratio(c: f32, m: &PlantPoint) -> Result<f32, ParamError> {
     m.blend_ratio(c).ok_or(ParamError {
         field: "c",
         kind: ParamErrorKind::OutOfRange,
@@ -424,8 +424,8 @@ impl ControlLaw {
         let point = plant.point();
         let plain = Self {
             law,
-            inertia: point.jeff as f32,
-            rigid_inertia: point.mtt as f32,
+            inertia: point.jeff,
+            rigid_inertia: point.mtt,
             integral_max: 0.0,
             model: smc_strain::ModelTerms::default(),
             #[cfg(feature = "observer")]
@@ -460,9 +460,9 @@ impl ControlLaw {
 
 /// `|z| <= limit / per_z`: the bound on an integral `z` whose torque is `per_z |z|`, so it
 /// cannot wind up past what the drive's `limit` can use (0, no integral, when `per_z` is 0).
-fn integral_bound(limit: f64, per_z: f64) -> f32 {
+fn integral_bound(limit: f32, per_z: f32) -> f32 {
     if per_z > 0.0 {
-        (limit / per_z) as f32
+        limit / per_z
     } else {
         0.0
     }
@@ -569,7 +569,7 @@ mod tests {
         );
         assert_eq!(err(Law::Pd(PdGains { kp: -1.0, kd: 1.0 })).field, "kp");
         // A blend so large that the surface loses its control direction is rejected.
-        let gamma_sign = strain_coupling(&m).signum() as f32;
+        let gamma_sign = strain_coupling(&m).signum();
         assert_eq!(err(strain(gamma_sign * 1e6)).field, "c");
     }
 }

@@ -71,14 +71,14 @@ impl Limits {
     pub fn for_plant(plant: impl Into<PlantPoint>) -> Self {
         let p = plant.into();
         Self {
-            torque_limit_nm: p.torque_limit_nm as f32,
+            torque_limit_nm: p.torque_limit_nm,
             torque_fraction: Self::DEFAULT_TORQUE_FRACTION,
             max_speed_rad_s: Self::DEFAULT_MAX_SPEED_RAD_S,
             min_rad: -Self::DEFAULT_RANGE_RAD,
             max_rad: Self::DEFAULT_RANGE_RAD,
-            inertia_kgm2: p.mtt as f32,
-            coulomb_nm: p.coulomb_nm as f32,
-            viscous_nms: p.viscous_nms as f32,
+            inertia_kgm2: p.mtt,
+            coulomb_nm: p.coulomb_nm,
+            viscous_nms: p.viscous_nms,
             min_segment_s: 0.0,
         }
     }

@@ -63,7 +63,7 @@ impl Param {
 /// Bounds of the strain blend c on `model`: where the blended output keeps its control
 /// direction, `1 - c gamma >= 0.25`, and within +-2000.
 fn blend_bounds<const N: usize>(model: &ModalModel<N>) -> (f64, f64) {
-    let gamma = model_core::law::strain_coupling(model);
+    let gamma = model_core::law::strain_coupling(model) as f64;
     // 1 - c gamma >= 0.25 on the side where c gamma > 0.
     let edge = 0.75 / gamma.abs().max(1e-12);
     let (lo, hi) = if gamma > 0.0 {

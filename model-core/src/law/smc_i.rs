@@ -55,11 +55,11 @@ impl LawGains for SmcIGains {
         _: &impl LawPlant,
     ) -> Result<ControlLaw, ParamError> {
         // The blended output's input gain, as for smc-strain (Jeff when c = 0).
-        let jc = m.jeff / input_gain_ratio(self.c as f64, m)?;
+        let jc = m.jeff / input_gain_ratio(self.c, m)?;
         // Jc A beta Wi |z| <= the drive's limit (infinite without integral action).
-        let per_z = jc * (self.a * self.beta * self.wi) as f64;
+        let per_z = jc * (self.a * self.beta * self.wi);
         Ok(ControlLaw {
-            inertia: jc as f32,
+            inertia: jc,
             integral_max: integral_bound(m.torque_limit_nm, per_z),
             ..plain
         })

@@ -65,30 +65,30 @@ impl LawGains for StrainSmcGains {
         m: &PlantPoint,
         _: &impl LawPlant,
     ) -> Result<ControlLaw, ParamError> {
-        let c = self.c as f64;
+        let c = self.c;
         let e = m.root_strain_coef;
         let ratio = input_gain_ratio(c, m)?;
         let r_theta = ratio / m.jeff;
         // Past the model's modes every vector is zero, and so is each added term.
-        let r_q: [f64; MAX_MODES] =
+        let r_q: [f32; MAX_MODES] =
             core::array::from_fn(|j| c * m.minv_e[j] - r_theta * m.minv_h[j]);
-        let col0 = |a: &[f64; MAX_MODES]| (0..MAX_MODES).map(|j| r_q[j] * a[j]).sum::<f64>();
+        let col0 = |a: &[f32; MAX_MODES]| (0..MAX_MODES).map(|j| r_q[j] * a[j]).sum::<f32>();
         let model = if self.model_terms && e[0].abs() > 0.0 {
             ModelTerms {
                 enabled: true,
-                q_per_strain: (1.0 / e[0]) as f32,
-                r_theta: r_theta as f32,
-                viscous: m.viscous_nms as f32,
-                s11: m.s_col0[0] as f32,
-                k_sum: col0(&m.kqq_col0) as f32,
-                c_sum: col0(&m.cq_col0) as f32,
-                s_sum: col0(&m.s_col0) as f32,
+                q_per_strain: 1.0 / e[0],
+                r_theta,
+                viscous: m.viscous_nms,
+                s11: m.s_col0[0],
+                k_sum: col0(&m.kqq_col0),
+                c_sum: col0(&m.cq_col0),
+                s_sum: col0(&m.s_col0),
             }
         } else {
             ModelTerms::default()
         };
         Ok(ControlLaw {
-            inertia: (1.0 / r_theta) as f32,
+            inertia: 1.0 / r_theta,
             model,
             ..plain
         })
