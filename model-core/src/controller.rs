@@ -14,7 +14,7 @@
 pub use crate::error::{CommandError, ConfigError};
 use crate::error::{ParamError, ParamErrorKind};
 use crate::law::{ControlLaw, Estimate, LawState};
-use crate::measure::{angle_rad, AdcSpec, CounterExtender, EncoderSpec, LowPass};
+use crate::measure::{angle_rad, AdcSpec, CounterExtender, EncoderSpec, FixedRate, LowPass};
 use crate::spline::{RefPoint, Spline};
 use core::fmt;
 
@@ -211,7 +211,7 @@ struct Config<const K: usize> {
     settings: ControllerSettings,
     spline: Spline<K>,
     rad_per_count: f32,
-    rad_per_count_f64: f64,
+    rad_per_count_fixed: FixedRate,
     strain_per_code: f32,
     /// The ADC's lowest and highest codes (`AdcSpec::at_rail`, computed once).
     rails: (i32, i32),
@@ -341,20 +341,21 @@ impl<const K: usize> Controller<K> {
         let strain_rate_lpf = LowPass::from_cutoff(s.strain_rate_cutoff_hz, s.ts_s)
             .ok_or(bad("strain_rate_cutoff_hz", ParamErrorKind::NotPositive))?;
         // The sensors' directions as the scales' signs: nothing more in the tick.
-        let signed_rad_per_count = s.encoder.signed_rad_per_count();
-        let rad_per_count = libm::fabs(signed_rad_per_count);
-        let max_counts = libm::ceil(s.max_speed_rad_s as f64 * s.ts_s as f64 / rad_per_count);
+        let fixed_rad_per_count = s.encoder.fixed_rad_per_count();
+        let signed_rad_per_count = fixed_rad_per_count.to_f32();
+        let max_counts =
+            libm::ceilf(s.max_speed_rad_s * s.ts_s / libm::fabsf(signed_rad_per_count));
         // The wrapped difference is only unambiguous below half the counter's range.
         let half_range = (1i64 << (s.encoder.counter_bits - 1)) - 1;
-        if max_counts >= half_range as f64 {
+        if !(max_counts < half_range as f32) {
             return Err(bad("max_speed_rad_s", ParamErrorKind::OutOfRange));
         }
         let cfg = Config {
             settings,
             law,
             spline,
-            rad_per_count: signed_rad_per_count as f32,
-            rad_per_count_f64: signed_rad_per_count,
+            rad_per_count: signed_rad_per_count,
+            rad_per_count_fixed: fixed_rad_per_count,
             strain_per_code: s.adc.signed_strain_per_code() as f32,
             rails: (s.adc.min_code(), s.adc.max_code()),
             max_counts_per_tick: max_counts as i64,
@@ -380,11 +381,10 @@ impl<const K: usize> Controller<K> {
                 let (lo, hi) = (a.min(b).min(-RANGE_RAD), a.max(b).max(RANGE_RAD));
                 // The strain offset the move will use: the mean of the idle codes so far,
                 // which are exactly those the next tick (which takes the start) would see.
-                // The f64 division is software on the Cortex-M4F, so it runs here, with the
-                // command, and not in a tick.
+                // The 64-bit division runs here, with the command, and not in a tick.
                 let st = &mut self.st;
                 if st.zero_n > 0 {
-                    st.zero_mean = (st.zero_sum as f64 / st.zero_n as f64) as f32;
+                    st.zero_mean = mean_code(st.zero_sum, st.zero_n);
                 }
                 // As centre and half-width: one comparison a tick.
                 st.range = ((lo + hi) / 2.0, (hi - lo) / 2.0 + RANGE_FAULT_MARGIN_RAD);
@@ -578,7 +578,7 @@ impl<const K: usize> Controller<K> {
             count,
             s.theta_home_rad,
             cfg.rad_per_count,
-            cfg.rad_per_count_f64,
+            cfg.rad_per_count_fixed,
         );
         // `delta` is a sign-extended difference of a counter of at most 32 bits, so it fits
         // an i32, whose conversion to f32 is one FPU instruction (an i64's is a call).
@@ -762,6 +762,15 @@ struct Hub {
     omega: f32,
     delta: i64,
     faults: FaultFlags,
+}
+
+/// `sum / n` in `f32`, to within one step of `f32`: the whole part of the mean (a code,
+/// below 2^24, so exact in `f32`) plus the remainder's fraction. No double precision, which
+/// the Cortex-M4F does in software.
+fn mean_code(sum: i64, n: u32) -> f32 {
+    let n = i64::from(n.max(1));
+    let (whole, rest) = (sum.div_euclid(n), sum.rem_euclid(n));
+    whole as f32 + rest as f32 / n as f32
 }
 
 #[cfg(test)]

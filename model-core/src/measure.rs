@@ -42,6 +42,31 @@ impl EncoderSpec {
         signed(self.rad_per_count(), self.reversed)
     }
 
+    /// Radians of hub angle per count up, as the 62-bit fixed-point number
+    /// [`angle_rad`] uses where a count is too far out for `f32`: `2 pi / counts_per_rev`
+    /// from `2 pi` to 128 bits, in integer arithmetic (no double precision, which the
+    /// Cortex-M4F does in software), negative when [`reversed`](EncoderSpec::reversed).
+    pub fn fixed_rad_per_count(&self) -> FixedRate {
+        // 2 pi 2^125, rounded (pi's first 128 bits, C90FDAA2 2168C234 C4C6628B 80DC1CD1).
+        const TAU_Q125: u128 = 0xc90f_daa2_2168_c234_c4c6_628b_80dc_1cd1;
+        let d = u64::from(self.counts_per_rev.max(1));
+        // Long division by 32-bit limbs: each partial quotient fits 32 bits.
+        let (mut q, mut r) = (0u128, 0u64);
+        for limb in (0..4).rev() {
+            let cur = (r << 32) | u64::from((TAU_Q125 >> (32 * limb)) as u32);
+            q |= u128::from(cur / d) << (32 * limb);
+            r = cur % d;
+        }
+        // 63 significant bits at most: q is at least 2 pi 2^93 (a u32 divisor), so the
+        // shift is at least 32.
+        let shift = (128 - q.leading_zeros()).saturating_sub(63);
+        let mantissa = (q >> shift) as i64;
+        FixedRate {
+            mantissa: if self.reversed { -mantissa } else { mantissa },
+            exp: 125 - shift,
+        }
+    }
+
     /// The counter's modulus minus one, as a mask.
     pub fn mask(&self) -> u32 {
         if self.counter_bits >= 32 {
@@ -149,23 +174,76 @@ impl CounterExtender {
 /// Counts within this distance of home convert to `f32` exactly (2^24).
 pub const EXACT_F32_COUNTS: i64 = 1 << 24;
 
+/// A fixed-point number, `mantissa * 2^-exp`: an encoder's radians per count to 62 bits
+/// ([`EncoderSpec::fixed_rad_per_count`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FixedRate {
+    /// Signed, below 2^63 in magnitude.
+    pub mantissa: i64,
+    /// The power of two it is divided by (60 to 93 for a `u32` count per revolution).
+    pub exp: u32,
+}
+
+impl FixedRate {
+    /// The nearest `f32` (to the 62 bits held).
+    pub fn to_f32(self) -> f32 {
+        self.mantissa as f32 * pow2(-(self.exp as i32))
+    }
+}
+
+/// `2^e` as an `f32`, for `-126 <= e <= 127` (a normal number: built from its bits).
+fn pow2(e: i32) -> f32 {
+    f32::from_bits(((e.clamp(-126, 127) + 127) as u32) << 23)
+}
+
 /// The hub angle of an extended count, `home + count * rad_per_count`.
 ///
 /// Computed from the integer count every tick and never accumulated, so no error builds up
 /// however long the drive runs. Within [`EXACT_F32_COUNTS`] of home (1024 revolutions at
 /// 16384 counts/rev) this is `f32` arithmetic on an exactly converted count, the fast path the
-/// slew always takes. Further out, where `count as f32` would round away whole counts, it is
-/// done in `f64` (software floating point on the Cortex-M4F, taken only there), so the angle
-/// is the nearest `f32` to the true value for any count an `i64` holds.
+/// slew always takes. Further out, where `count as f32` would round away whole counts, the
+/// sum is formed exactly in 128-bit integers at the rate's fixed point (`rate`, the same
+/// number as `rad_per_count` to 62 bits) and rounded to `f32` once, so the angle is the
+/// nearest `f32` to the true value for any count an `i64` holds (for a home within 2^31 rad).
 #[inline]
-pub fn angle_rad(count: i64, home_rad: f32, rad_per_count: f32, rad_per_count_f64: f64) -> f32 {
+pub fn angle_rad(count: i64, home_rad: f32, rad_per_count: f32, rate: FixedRate) -> f32 {
     if count.unsigned_abs() < EXACT_F32_COUNTS as u64 {
         // Within 2^24 the count fits an i32, whose conversion is one FPU instruction on the
         // Cortex-M4F (an i64's is a library call); both are exact here.
         home_rad + (count as i32) as f32 * rad_per_count
     } else {
-        (home_rad as f64 + count as f64 * rad_per_count_f64) as f32
+        far_angle_rad(count, home_rad, rate)
     }
+}
+
+/// [`angle_rad`] past [`EXACT_F32_COUNTS`]: `count * mantissa + home 2^exp` in `i128`
+/// (below 2^126 plus the home's share), converted to `f32` with one rounding and scaled by
+/// `2^-exp` exactly.
+#[inline(never)]
+fn far_angle_rad(count: i64, home_rad: f32, rate: FixedRate) -> f32 {
+    let exp = rate.exp as i32;
+    // The home as `m 2^e` with an integer m of at most 24 bits.
+    let bits = home_rad.to_bits();
+    let biased = ((bits >> 23) & 0xff) as i32;
+    let m = if biased == 0 {
+        (bits & 0x7f_ffff) as i128
+    } else {
+        ((bits & 0x7f_ffff) | 0x80_0000) as i128
+    };
+    let m = if bits >> 31 == 1 { -m } else { m };
+    let e = biased.max(1) - 150;
+    // At the rate's fixed point; bits below it are dropped (a home is a few radians, whose
+    // last bit is far above 2^-60). Up to 2^100 it leaves the sum below 2^127 (a home within
+    // 2^31 rad for any encoder); past that the sum is left to f32.
+    let at = e + exp;
+    let home_fixed = match at {
+        0.. if at <= 100 => m << at,
+        0.. => return home_rad + count as f32 * rate.to_f32(),
+        _ => m >> (-at).min(127),
+    };
+    let sum = i128::from(count) * i128::from(rate.mantissa) + home_fixed;
+    sum as f32 * pow2(-exp)
 }
 
 /// First-order low-pass coefficient: `y += alpha (x - y)` with `alpha = 1 - exp(-2 pi fc Ts)`.
@@ -225,7 +303,9 @@ mod tests {
     #[test]
     fn a_week_at_full_speed_keeps_the_count_and_the_angle_exact() {
         let spec = EncoderSpec::DEFAULT;
-        let (rpc, rpc32) = (spec.rad_per_count(), spec.rad_per_count() as f32);
+        let (rpc, rate) = (spec.rad_per_count(), spec.fixed_rad_per_count());
+        let rpc32 = rate.to_f32();
+        assert_eq!(rpc32, rpc as f32);
         let home = -core::f32::consts::FRAC_PI_2;
         const STEP: u32 = 130;
         const TICKS: u64 = 7 * 24 * 3600 * 1000;
@@ -233,7 +313,7 @@ mod tests {
             let revs = count.div_euclid(spec.counts_per_rev as i64) as f64;
             let rem = count.rem_euclid(spec.counts_per_rev as i64) as f64;
             let truth = home as f64 + revs * core::f64::consts::TAU + rem * rpc;
-            let got = angle_rad(count, home, rpc32, rpc) as f64;
+            let got = angle_rad(count, home, rpc32, rate) as f64;
             let ulp = (truth.abs() as f32).to_bits();
             let ulp = (f32::from_bits(ulp + 1) - f32::from_bits(ulp)) as f64;
             assert!(
@@ -274,10 +354,67 @@ mod tests {
             check(count);
             if dir < 0 {
                 assert_eq!(count, 0);
-                assert_eq!(angle_rad(count, home, rpc32, rpc), home);
+                assert_eq!(angle_rad(count, home, rpc32, rate), home);
             } else {
                 assert_eq!(count, (TICKS * STEP as u64) as i64);
             }
+        }
+    }
+
+    /// The fixed-point rate is 2 pi / counts to 62 bits, for encoders from one count a
+    /// revolution to a 32-bit count, either way round: against the rate from 2 pi in f64
+    /// (53 bits: their difference is f64's rounding, under 2^-52 of it).
+    #[test]
+    fn the_fixed_rate_is_two_pi_over_the_counts() {
+        for cpr in [1u32, 3, 1000, 4096, 16384, 100_000, 1 << 20, u32::MAX] {
+            for reversed in [false, true] {
+                let spec = EncoderSpec {
+                    counts_per_rev: cpr,
+                    counter_bits: 16,
+                    reversed,
+                };
+                let rate = spec.fixed_rad_per_count();
+                assert!(rate.mantissa.unsigned_abs() >= 1 << 62, "{cpr}: {rate:?}");
+                let got = rate.mantissa as f64 * (-(rate.exp as f64)).exp2();
+                let want = spec.signed_rad_per_count();
+                assert!((got - want).abs() <= want.abs() * 2.0f64.powi(-52), "{cpr}");
+                assert_eq!(rate.to_f32(), want as f32, "{cpr}");
+            }
+        }
+    }
+
+    /// Far out, the angle is the nearest f32 to `home + count 2 pi / counts`, whatever the
+    /// home's sign and size (up to a few revolutions) and for counts to i64's ends: against
+    /// whole revolutions plus the remainder, in f64, for counts where f64 holds that sum to
+    /// far better than an f32 step.
+    #[test]
+    fn far_out_the_angle_is_the_nearest_f32() {
+        let spec = EncoderSpec::DEFAULT;
+        let (rpc, rate) = (spec.rad_per_count(), spec.fixed_rad_per_count());
+        let cpr = spec.counts_per_rev as i64;
+        for home in [0.0f32, -1.5707964, 3.0, -20.0, 1e-30, 7.0e-3] {
+            for count in [
+                1i64 << 24,
+                -(1 << 24) - 7,
+                123_456_789_012,
+                -98_765_432_109_876,
+            ] {
+                let revs = count.div_euclid(cpr) as f64;
+                let rem = count.rem_euclid(cpr) as f64;
+                let truth = home as f64 + revs * core::f64::consts::TAU + rem * rpc;
+                let got = angle_rad(count, home, rate.to_f32(), rate) as f64;
+                let step = (truth.abs() as f32).to_bits();
+                let step = (f32::from_bits(step + 1) - f32::from_bits(step)) as f64;
+                assert!(
+                    (got - truth).abs() <= 0.5 * step * (1.0 + 1e-6),
+                    "home {home} count {count}: {got} vs {truth}"
+                );
+            }
+        }
+        // At i64's ends the angle is finite and has the count's sign.
+        for count in [i64::MAX, i64::MIN] {
+            let a = angle_rad(count, 1.0, rate.to_f32(), rate);
+            assert!(a.is_finite() && (a > 0.0) == (count > 0), "{count}: {a}");
         }
     }
 

@@ -431,3 +431,28 @@ fn the_finite_check_flags_every_infinity_and_nan_and_nothing_finite() {
     // Two infinities of opposite sign do not cancel.
     assert!(check(f32::INFINITY, 0.0, f32::NEG_INFINITY));
 }
+
+proptest! {
+    /// The idle codes' mean, in f32 without double precision, is within one f32 step of
+    /// the exact quotient (a 24-bit code's sum over up to 2^16 samples).
+    #[test]
+    fn the_mean_code_is_the_quotient_to_one_f32_step(
+        mean in -(1i64 << 23)..(1i64 << 23),
+        spread in 0i64..(1i64 << 16),
+        n in 1u32..=MAX_ZERO_SAMPLES,
+    ) {
+        let sum = mean * n as i64 + spread % n as i64;
+        let exact = sum as f64 / n as f64;
+        let got = mean_code(sum, n) as f64;
+        let step = f32::EPSILON as f64 * exact.abs().max(1.0);
+        prop_assert!((got - exact).abs() <= step, "{sum} / {n}: {got} against {exact}");
+    }
+}
+
+#[test]
+fn the_mean_code_of_a_few_codes_is_exact() {
+    assert_eq!(mean_code(-7, 2), -3.5);
+    assert_eq!(mean_code(7, 2), 3.5);
+    assert_eq!(mean_code(0, 5), 0.0);
+    assert_eq!(mean_code(-1, 4), -0.25);
+}
