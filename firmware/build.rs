@@ -74,7 +74,13 @@ fn observer_designs() -> String {
         // On the plant's payload grid (every row's payload, at most PLANT_STEP_KG apart), each
         // for the gains scheduled there: mixing designs made a whole row apart (25 g) cost
         // the beam a fifth of a second of settling between them.
-        let rows = rows_for(kind);
+        // A drive built for one law (`drive-law-only`, which this script's model-core
+        // shares) holds no other law's designs: it could not build that law.
+        let rows = if model_core::law::built_in(kind) {
+            rows_for(kind)
+        } else {
+            &[]
+        };
         for payload_kg in PLANT.first_hz.iter().map(|&(p, _)| p) {
             let Some(law) = scheduled_law(rows, kind, payload_kg) else {
                 break;

@@ -242,6 +242,9 @@ pub enum ParamErrorKind {
     NeedsModel,
     /// No stable design exists for it (a Riccati equation did not converge).
     NoDesign,
+    /// Not in this build: a drive built for one law (its gain table's `[drive]` law) holds
+    /// no other law's code.
+    NotBuiltIn,
 }
 
 /// A rejected value: which field and why. The field is named as in the structure being
@@ -265,6 +268,7 @@ impl fmt::Display for ParamError {
             ParamErrorKind::OutOfRange => "is out of range",
             ParamErrorKind::NeedsModel => "needs a modal model to design on",
             ParamErrorKind::NoDesign => "has no stable design",
+            ParamErrorKind::NotBuiltIn => "is not built into this drive",
         };
         write!(f, "`{}` {}", self.field, why)
     }

@@ -157,6 +157,25 @@ pub trait LawGains: GainLayout {
     ) -> f32;
 }
 
+/// The one law a drive built with model-core's `drive-law-only` feature holds (the board:
+/// `cargo fw`): its compiled table's `[drive]` law. Every other law is refused when it is
+/// built ([`ParamErrorKind::NotBuiltIn`]), and its code is not in the binary. `None` without
+/// the feature (the host, the PIL drive): every law.
+pub const ONLY_LAW: Option<LawKind> = if cfg!(feature = "drive-law-only") {
+    Some(crate::gains::DRIVE.law)
+} else {
+    None
+};
+
+/// Whether this build holds law `kind` ([`ONLY_LAW`]). A constant wherever `kind` is, so the
+/// dispatch below drops the other laws' arms.
+pub const fn built_in(kind: LawKind) -> bool {
+    match ONLY_LAW {
+        Some(only) => only as u8 == kind as u8,
+        None => true,
+    }
+}
+
 /// Makes [`Law`]'s constructors and dispatch from the list of laws.
 macro_rules! laws {
     ($( $(#[$meta:meta])* $kind:ident($gains:ident), )+) => {
@@ -220,7 +239,15 @@ macro_rules! laws {
             ) -> Result<ControlLaw, ParamError> {
                 let (v, s) = (self.values, self.settings);
                 match self.kind {
-                    $( LawKind::$kind => $gains::from_values(v, s).build(plain, point, plant), )+
+                    $(
+                        LawKind::$kind if built_in(LawKind::$kind) => {
+                            $gains::from_values(v, s).build(plain, point, plant)
+                        }
+                    )+
+                    kind => Err(ParamError {
+                        field: kind.name(),
+                        kind: ParamErrorKind::NotBuiltIn,
+                    }),
                 }
             }
 
@@ -235,7 +262,14 @@ macro_rules! laws {
             ) -> f32 {
                 let (v, s) = (self.values, self.settings);
                 match self.kind {
-                    $( LawKind::$kind => $gains::from_values(v, s).torque_nm(law, x, r, state, ts_s), )+
+                    $(
+                        LawKind::$kind if built_in(LawKind::$kind) => {
+                            $gains::from_values(v, s).torque_nm(law, x, r, state, ts_s)
+                        }
+                    )+
+                    // A law not built in is refused when it is built (`build` above), so no
+                    // `ControlLaw` of it exists to get here.
+                    _ => 0.0,
                 }
             }
         }
@@ -534,6 +568,26 @@ mod tests {
 
     pub(super) fn model() -> ModalModel<3> {
         ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
+    }
+
+    /// Built for one law (the board: `cargo test -p model-core --features drive-law-only
+    /// --lib one_law`, which CI runs), the compiled table's `[drive]` law builds and every
+    /// other is refused by name.
+    #[cfg(feature = "drive-law-only")]
+    #[test]
+    fn a_drive_built_for_one_law_refuses_the_others() {
+        let point = PlantPoint::of(&model());
+        let only = crate::gains::DRIVE.law;
+        assert_eq!(ONLY_LAW, Some(only));
+        for &kind in LawKind::ALL {
+            let built = ControlLaw::try_build(Law::start(kind), point);
+            if kind == only {
+                assert!(built.is_ok(), "{kind}: {built:?}");
+            } else {
+                let e = built.unwrap_err();
+                assert_eq!((e.field, e.kind), (kind.name(), ParamErrorKind::NotBuiltIn));
+            }
+        }
     }
 
     pub(super) const GAINS: SmcGains = SmcGains {
