@@ -282,6 +282,8 @@ pub const STALL_TORQUE_FRACTION: f32 = 0.2;
 /// Idle samples averaged for the strain offset at most (a quarter second at 1 kHz is plenty,
 /// and the sum cannot overflow).
 const MAX_ZERO_SAMPLES: u32 = 1 << 16;
+// `mean_code` divides by at most 2^16.
+const _: () = assert!(MAX_ZERO_SAMPLES <= 1 << 16);
 
 /// The per-tick controller, generic over the move's knot capacity `K`.
 #[derive(Clone, Debug, PartialEq)]
@@ -764,13 +766,27 @@ struct Hub {
     faults: FaultFlags,
 }
 
-/// `sum / n` in `f32`, to within one step of `f32`: the whole part of the mean (a code,
-/// below 2^24, so exact in `f32`) plus the remainder's fraction. No double precision, which
-/// the Cortex-M4F does in software.
+/// `sum / n` in `f32`, to within one step of `f32`, for `1 <= n <= 2^16`
+/// ([`MAX_ZERO_SAMPLES`]): the whole part of the mean (a code, so at most 2^31 and one
+/// conversion) plus the remainder's fraction. The division runs on 16-bit digits, each step
+/// within the Cortex-M4's 32-bit divide instruction: no double precision, and no 64-bit
+/// division routine (0.9 KB of flash for this one use).
 fn mean_code(sum: i64, n: u32) -> f32 {
-    let n = i64::from(n.max(1));
-    let (whole, rest) = (sum.div_euclid(n), sum.rem_euclid(n));
-    whole as f32 + rest as f32 / n as f32
+    let n = n.clamp(1, MAX_ZERO_SAMPLES);
+    let magnitude = sum.unsigned_abs();
+    let (mut whole, mut rest) = (0u64, 0u32);
+    for digit in (0..4).rev() {
+        // rest < n <= 2^16, so this fits 32 bits.
+        let cur = (rest << 16) | ((magnitude >> (16 * digit)) & 0xffff) as u32;
+        whole |= u64::from(cur / n) << (16 * digit);
+        rest = cur % n;
+    }
+    let mean = whole as u32 as f32 + rest as f32 / n as f32;
+    if sum < 0 {
+        -mean
+    } else {
+        mean
+    }
 }
 
 #[cfg(test)]

@@ -434,10 +434,10 @@ fn the_finite_check_flags_every_infinity_and_nan_and_nothing_finite() {
 
 proptest! {
     /// The idle codes' mean, in f32 without double precision, is within one f32 step of
-    /// the exact quotient (a 24-bit code's sum over up to 2^16 samples).
+    /// the exact quotient (a code of up to 32 bits, summed over up to 2^16 samples).
     #[test]
     fn the_mean_code_is_the_quotient_to_one_f32_step(
-        mean in -(1i64 << 23)..(1i64 << 23),
+        mean in -(1i64 << 31)..(1i64 << 31),
         spread in 0i64..(1i64 << 16),
         n in 1u32..=MAX_ZERO_SAMPLES,
     ) {
