@@ -188,13 +188,8 @@ pub struct FixedRate {
 impl FixedRate {
     /// The nearest `f32` (to the 62 bits held).
     pub fn to_f32(self) -> f32 {
-        self.mantissa as f32 * pow2(-(self.exp as i32))
+        libm::scalbnf(self.mantissa as f32, -(self.exp as i32))
     }
-}
-
-/// `2^e` as an `f32`, for `-126 <= e <= 127` (a normal number: built from its bits).
-fn pow2(e: i32) -> f32 {
-    f32::from_bits(((e.clamp(-126, 127) + 127) as u32) << 23)
 }
 
 /// The hub angle of an extended count, `home + count * rad_per_count`.
@@ -223,16 +218,10 @@ pub fn angle_rad(count: i64, home_rad: f32, rad_per_count: f32, rate: FixedRate)
 #[inline(never)]
 fn far_angle_rad(count: i64, home_rad: f32, rate: FixedRate) -> f32 {
     let exp = rate.exp as i32;
-    // The home as `m 2^e` with an integer m of at most 24 bits.
-    let bits = home_rad.to_bits();
-    let biased = ((bits >> 23) & 0xff) as i32;
-    let m = if biased == 0 {
-        (bits & 0x7f_ffff) as i128
-    } else {
-        ((bits & 0x7f_ffff) | 0x80_0000) as i128
-    };
-    let m = if bits >> 31 == 1 { -m } else { m };
-    let e = biased.max(1) - 150;
+    // The home as `m 2^e` with an integer m of at most 24 bits (`frexpf`'s fraction, in
+    // [0.5, 1), times 2^24 is exact).
+    let (fraction, e) = libm::frexpf(home_rad);
+    let (m, e) = (libm::scalbnf(fraction, 24) as i128, e - 24);
     // At the rate's fixed point; bits below it are dropped (a home is a few radians, whose
     // last bit is far above 2^-60). Up to 2^100 it leaves the sum below 2^127 (a home within
     // 2^31 rad for any encoder); past that the sum is left to f32.
@@ -243,7 +232,7 @@ fn far_angle_rad(count: i64, home_rad: f32, rate: FixedRate) -> f32 {
         _ => m >> (-at).min(127),
     };
     let sum = i128::from(count) * i128::from(rate.mantissa) + home_fixed;
-    sum as f32 * pow2(-exp)
+    libm::scalbnf(sum as f32, -exp)
 }
 
 /// First-order low-pass coefficient: `y += alpha (x - y)` with `alpha = 1 - exp(-2 pi fc Ts)`.
