@@ -211,9 +211,14 @@ impl<const K: usize> Spline<K> {
             .unwrap_or(0)
     }
 
-    /// Evaluates one segment's polynomial at `t_s`, clamped to that segment.
+    /// Evaluates one segment's polynomial at `t_s`, a time within that segment: `t0 <= t_s
+    /// <= t0 + h` (where [`Spline::eval_from`] calls it, `t_s` is at least the segment's
+    /// start and below the next knot or the end). Then `tau` is within [0, 1] as computed,
+    /// with no clamp: rounding is monotonic, so `t_s - t0` rounds to at most `t1 - t0`,
+    /// which is `h` as stored, and a quotient of two such numbers to at most 1.
     fn eval_in(seg: &Segment, t_s: f32) -> RefPoint {
-        let tau = ((t_s - seg.t0_s) / seg.h_s).clamp(0.0, 1.0);
+        let tau = (t_s - seg.t0_s) / seg.h_s;
+        debug_assert!((0.0..=1.0).contains(&tau), "tau {tau} outside its segment");
         let d = &seg.d;
         let pos = d[0] + tau * (d[1] + tau * (d[2] + tau * (d[3] + tau * (d[4] + tau * d[5]))));
         let vel =

@@ -244,22 +244,28 @@ pub(super) fn observe(
     unrolled!(m in [0 1] => {
         u += d.ff_q[m] * rq[m] + d.ff_dq[m] * rdq[m] + w2 * d.ff_s[m] * rq[m];
     });
+    // Made here, not where the branch below merges: left to itself, LLVM loads these
+    // coefficients now, spills them to the stack over the reference beam's step and adds
+    // them up after it (about 30 instructions of the drive's tick). `black_box` pins the
+    // sum to this point for 3 (a store and a load); the value is unchanged.
+    let mut u = core::hint::black_box(u);
     // Once the reference is at rest the reference beam is too: whatever it would still
     // ring with (a shaper's residual, a mode it was not tuned for) is the feedback's to
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
     // it there too; the law cannot tell that pause from the end.)
-    state.reference = if r.vel == 0.0 && r.acc == 0.0 {
-        [0.0; 2 * DESIGN_MODES]
+    // Each row is stored as it is made (an array made first is stored and copied).
+    if r.vel == 0.0 && r.acc == 0.0 {
+        state.reference = [0.0; 2 * DESIGN_MODES];
     } else {
         unrolled!(i in [0 1 2 3] => {
             let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
-            if i < DESIGN_MODES {
+            state.reference[i] = if i < DESIGN_MODES {
                 z
             } else {
                 z + w2 * dot2(0.0, &d.ref_s[i - DESIGN_MODES], &rq)
-            }
-        })
-    };
+            };
+        });
+    }
     // The prediction, from the torque applied last tick; the innovations need the angle's
     // and the modes' rows first.
     let xo = state.estimate;
