@@ -45,10 +45,12 @@ impl TorqueScale {
             0.0
         };
         Drive {
-            // Round half up by adding 0.5 and truncating (the value is never negative, and
-            // `as` saturates): the same result as `roundf` except within an ulp of a half,
-            // without its library call on the tick.
-            duty: (fraction * max_duty as f32 + 0.5) as u16,
+            // Round half up by adding 0.5 and truncating: the same result as `roundf`
+            // except within an ulp of a half, without its library call on the tick. The sum
+            // is within [0.5, 65535.5] (`fraction` is within [0, 1], `max_duty` a u16), so it
+            // truncates into a u16 as it is: through `u32`, one saturating VCVT on the
+            // Cortex-M4F, without the compares a saturating cast to `u16` adds.
+            duty: (fraction * max_duty as f32 + 0.5) as u32 as u16,
             positive: torque_nm >= 0.0,
         }
     }
@@ -231,6 +233,11 @@ mod tests {
         assert_eq!(d(f32::INFINITY).duty, 0);
         // One LSB of duty is 10/4200 N m; half of one rounds up.
         assert_eq!(d(10.0 / 4200.0 * 0.5).duty, 1);
+        // The widest timer: full scale and past it are its top count, not a wrap to 0.
+        for t in [10.0, 25.0, -25.0, f32::MAX] {
+            assert_eq!(SCALE.duty(t, u16::MAX).duty, u16::MAX);
+        }
+        assert_eq!(SCALE.duty(0.0, u16::MAX).duty, 0);
     }
 
     /// Starts disabled, then each torque sets direction, duty and enable in that order, and

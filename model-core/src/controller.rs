@@ -14,7 +14,9 @@
 pub use crate::error::{CommandError, ConfigError};
 use crate::error::{ParamError, ParamErrorKind};
 use crate::law::{ControlLaw, Estimate, LawState};
-use crate::measure::{angle_rad, AdcSpec, CounterExtender, EncoderSpec, FixedRate, LowPass};
+use crate::measure::{
+    angle_rad, AdcSpec, CounterExtender, CounterWidth, EncoderSpec, FixedRate, LowPass,
+};
 use crate::spline::{RefPoint, Spline};
 use core::fmt;
 
@@ -215,7 +217,10 @@ struct Config<const K: usize> {
     strain_per_code: f32,
     /// The ADC's lowest and highest codes (`AdcSpec::at_rail`, computed once).
     rails: (i32, i32),
-    max_counts_per_tick: i64,
+    /// Below half the counter's range, so below 2^31 (checked when built).
+    max_counts_per_tick: u32,
+    /// `settings.encoder.width()`, worked out once.
+    counter_width: CounterWidth,
     velocity_lpf: LowPass,
     strain_rate_lpf: LowPass,
 }
@@ -360,7 +365,8 @@ impl<const K: usize> Controller<K> {
             rad_per_count_fixed: fixed_rad_per_count,
             strain_per_code: s.adc.signed_strain_per_code() as f32,
             rails: (s.adc.min_code(), s.adc.max_code()),
-            max_counts_per_tick: max_counts as i64,
+            max_counts_per_tick: max_counts as u32,
+            counter_width: s.encoder.width(),
             velocity_lpf,
             strain_rate_lpf,
         };
@@ -572,8 +578,12 @@ impl<const K: usize> Controller<K> {
         let (cfg, st) = (&self.cfg, &mut self.st);
         let s = &cfg.settings;
         let mut faults = FaultFlags::default();
-        let (count, delta) = st.counter.update(raw.encoder_raw, &s.encoder);
-        if delta.unsigned_abs() > cfg.max_counts_per_tick as u64 {
+        let (count, delta) = st.counter.update_in(raw.encoder_raw, cfg.counter_width);
+        // `delta` is a sign-extended difference of a counter of at most 32 bits, so it fits
+        // an i32: compared in 32 bits, not in pairs of registers as an i64 is on the
+        // Cortex-M4, and converted to f32 by one FPU instruction (an i64's is a call).
+        let delta = delta as i32;
+        if delta.unsigned_abs() > cfg.max_counts_per_tick {
             faults.insert(FaultFlags::ENCODER_JUMP);
         }
         let theta = angle_rad(
@@ -582,12 +592,9 @@ impl<const K: usize> Controller<K> {
             cfg.rad_per_count,
             cfg.rad_per_count_fixed,
         );
-        // `delta` is a sign-extended difference of a counter of at most 32 bits, so it fits
-        // an i32, whose conversion to f32 is one FPU instruction (an i64's is a call).
-        let omega = cfg.velocity_lpf.process(
-            &mut st.omega,
-            (delta as i32) as f32 * cfg.rad_per_count / s.ts_s,
-        );
+        let omega = cfg
+            .velocity_lpf
+            .process(&mut st.omega, delta as f32 * cfg.rad_per_count / s.ts_s);
         Hub {
             theta,
             omega,
@@ -716,7 +723,7 @@ impl<const K: usize> Controller<K> {
     /// (`delta` 0) for [`STALL_TICKS`] under at least [`STALL_TORQUE_FRACTION`] of the limit
     /// latches [`FaultFlags::ENCODER_STUCK`]. Returns the torque to apply.
     #[inline(always)]
-    fn command(&mut self, x: &Estimate, reference: Option<&RefPoint>, delta: i64) -> f32 {
+    fn command(&mut self, x: &Estimate, reference: Option<&RefPoint>, delta: i32) -> f32 {
         let (cfg, st) = (&self.cfg, &mut self.st);
         let mut torque = 0.0;
         if let Some(r) = reference {
@@ -762,7 +769,7 @@ impl<const K: usize> Controller<K> {
 struct Hub {
     theta: f32,
     omega: f32,
-    delta: i64,
+    delta: i32,
     faults: FaultFlags,
 }
 

@@ -75,6 +75,24 @@ impl EncoderSpec {
             (1u32 << self.counter_bits) - 1
         }
     }
+
+    /// The counter's width as [`CounterExtender::update_in`] uses it.
+    pub fn width(&self) -> CounterWidth {
+        CounterWidth {
+            mask: self.mask(),
+            shift: 32 - self.counter_bits.clamp(1, 32) as u32,
+        }
+    }
+}
+
+/// A counter's width, for [`CounterExtender::update_in`]: see [`EncoderSpec::width`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CounterWidth {
+    /// [`EncoderSpec::mask`].
+    pub mask: u32,
+    /// 32 less the counter's bits: the shifts that sign-extend a change.
+    pub shift: u32,
 }
 
 /// A bipolar strain-gauge ADC: signed codes, full scale in strain.
@@ -148,8 +166,14 @@ impl CounterExtender {
     /// origin: count 0, change 0. A change is taken modulo the counter width into
     /// `-2^(bits-1) .. 2^(bits-1)`, so the counter must not move half its range in one tick.
     pub fn update(&mut self, raw: u32, spec: &EncoderSpec) -> (i64, i64) {
-        let bits = spec.counter_bits.clamp(1, 32) as u32;
-        let raw = raw & spec.mask();
+        self.update_in(raw, spec.width())
+    }
+
+    /// [`CounterExtender::update`] with the counter's width worked out beforehand (once,
+    /// not on every tick).
+    #[inline(always)]
+    pub fn update_in(&mut self, raw: u32, width: CounterWidth) -> (i64, i64) {
+        let raw = raw & width.mask;
         if !self.primed {
             self.primed = true;
             self.last_raw = raw;
@@ -157,8 +181,8 @@ impl CounterExtender {
         }
         // Sign-extend the wrapped difference from `bits` to 32 bits (bits <= 32), then to 64.
         // In 32 bits: the Cortex-M4 has no 64-bit shifts by a variable amount.
-        let diff = raw.wrapping_sub(self.last_raw) & spec.mask();
-        let shift = 32 - bits;
+        let diff = raw.wrapping_sub(self.last_raw) & width.mask;
+        let shift = width.shift;
         let delta = (((diff << shift) as i32) >> shift) as i64;
         self.last_raw = raw;
         self.count = self.count.wrapping_add(delta);
