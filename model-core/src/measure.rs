@@ -179,11 +179,11 @@ impl CounterExtender {
             self.last_raw = raw;
             return (self.count, 0);
         }
-        // Sign-extend the wrapped difference from `bits` to 32 bits (bits <= 32), then to 64.
-        // In 32 bits: the Cortex-M4 has no 64-bit shifts by a variable amount.
+        // Sign-extend the wrapped difference from the counter's width to 32 bits (at most
+        // 32), then to 64. In 32 bits: the Cortex-M4 has no 64-bit shifts by a variable
+        // amount.
         let diff = raw.wrapping_sub(self.last_raw) & width.mask;
-        let shift = width.shift;
-        let delta = (((diff << shift) as i32) >> shift) as i64;
+        let delta = (((diff << width.shift) as i32) >> width.shift) as i64;
         self.last_raw = raw;
         self.count = self.count.wrapping_add(delta);
         (self.count, delta)
