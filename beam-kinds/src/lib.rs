@@ -108,6 +108,11 @@ named_enum! {
     }
 }
 
+impl LawKind {
+    /// The law a drive runs when its gain table's `[drive]` names none: the paper's SMC.
+    pub const DEFAULT_DRIVE: LawKind = LawKind::Smc;
+}
+
 named_enum! {
     /// The input shaper applied to a move's reference (docs/design.md, section 3): a train of
     /// impulses the base move is convolved with, so that it does not excite a mode.

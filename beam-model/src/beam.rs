@@ -238,7 +238,8 @@ pub enum ParamErrorKind {
     Negative,
     /// Outside its documented range.
     OutOfRange,
-    /// Needs the whole modal model to be designed (the LQG law built on a plant point).
+    /// Needs the whole modal model and its instruments to be designed (an observer law built
+    /// on a plant point or a bare model).
     NeedsModel,
     /// No stable design exists for it (a Riccati equation did not converge).
     NoDesign,
@@ -266,7 +267,9 @@ impl fmt::Display for ParamError {
             ParamErrorKind::NotPositive => "must be > 0",
             ParamErrorKind::Negative => "must be >= 0",
             ParamErrorKind::OutOfRange => "is out of range",
-            ParamErrorKind::NeedsModel => "needs a modal model to design on",
+            ParamErrorKind::NeedsModel => {
+                "needs a modal model and the instruments that read it to design on"
+            }
             ParamErrorKind::NoDesign => "has no stable design",
             ParamErrorKind::NotBuiltIn => "is not built into this drive",
         };

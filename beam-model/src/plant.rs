@@ -143,6 +143,34 @@ pub struct Plant {
 }
 
 impl Plant {
+    /// The plant of the beam `params` (its tip mass zero), from its modal models with no
+    /// payload (`m0`) and with 1 kg at the tip (`m1`, for the slope of `S`, which is affine
+    /// in the payload), and its first clamped frequency at payloads from 0 up (`first_hz`,
+    /// sorted: the payloads the plant covers).
+    pub fn from_models<const N: usize>(
+        params: BeamParams,
+        m0: &ModalModel<N>,
+        m1: &ModalModel<N>,
+        first_hz: &'static [(f32, f32)],
+    ) -> Plant {
+        let pad = |v: &[f64; N]| -> [f32; MAX_MODES] {
+            core::array::from_fn(|i| if i < N { v[i] as f32 } else { 0.0 })
+        };
+        Plant {
+            params,
+            modes: N,
+            base: PlantPoint::of(m0),
+            arm_m: (params.hub_radius_m + params.length_m) as f32,
+            damping_ratio: params.damping_ratio as f32,
+            h: pad(&m0.h),
+            tip_shape: pad(&m0.tip_coef),
+            tip_minv: pad(&linalg::mat_vec(&m0.mqq_inv, &m0.tip_coef)),
+            s_col0_per_kg: pad(&core::array::from_fn(|i| m1.s[i][0] - m0.s[i][0])),
+            mqq00: m0.mqq[0][0] as f32,
+            first_hz,
+        }
+    }
+
     /// The heaviest payload the plant covers, kg: the end of its frequency table.
     pub fn max_payload_kg(&self) -> f32 {
         self.first_hz.last().map_or(0.0, |&(p, _)| p)

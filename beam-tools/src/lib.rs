@@ -5,7 +5,7 @@
 //!   against a log ([`identify::replay`]), and the small least squares they share
 //!   ([`identify::lsq`]).
 //! - [`design`]: gains by constrained optimisation ([`design::optimize`]), Monte Carlo
-//!   robustness ([`design::sweep`]) and gain tables read at run time ([`design::table`]).
+//!   robustness ([`design::sweep`]).
 //! - [`link`]: the drive's end points on the host: the processor-in-the-loop host
 //!   ([`link::pil_host`]), a drive on a serial port ([`link::serial_drive`]), command scripts
 //!   ([`link::drive_script`]) and the drive's telemetry ([`link::telemetry`]).

@@ -1,10 +1,11 @@
 //! Gain design: the optimiser is deterministic and honours its constraints, and the shipped
-//! gain table (compiled into model-core) does what the table claims on the plant.
+//! gain table (loaded as the tools load it) does what the table claims on the plant.
+
+mod common;
 
 use beam_tools::design::optimize::{default_params, evaluate, optimize, Spec};
 use host_tests::metrics::{metrics, CostSpec};
 use host_tests::sim::{simulate, SimOptions, HAND_PICKED_SMC};
-use model_core::gains::{schedule, GAIN_TABLE};
 use model_core::{Beam, BeamParams, Law, LawKind, ModalModel, PdGains, Switching};
 
 fn model(payload_kg: f64) -> ModalModel<3> {
@@ -18,6 +19,7 @@ fn model(payload_kg: f64) -> ModalModel<3> {
 fn spec(m: &ModalModel<3>, seed: u64) -> Spec {
     Spec {
         kind: LawKind::Smc,
+        instruments: model_core::Instruments::DEFAULT,
         params: default_params(LawKind::Smc, m),
         switching: Switching::Tanh,
         model_terms: false,
@@ -75,7 +77,9 @@ fn shipped_smc_gains_cut_residual_strain_tenfold_with_the_hub_on_target() {
     // The design goal: RMS root strain over 0.4..0.6 s at most a tenth of PD (20, 1)'s, with
     // the hub within 1 deg of the target at 0.6 s, on the default preset at no payload.
     let m = model(0.0);
-    let smc = schedule(GAIN_TABLE, LawKind::Smc, 0.0).expect("the table has smc rows");
+    let smc = common::shipped()
+        .law(LawKind::Smc, 0.0)
+        .expect("the table has smc rows");
     let opts = SimOptions::default();
     let r = metrics(&simulate(&m, smc, &opts).unwrap());
     let pd = metrics(&simulate(&m, Law::Pd(PdGains::BASELINE), &opts).unwrap());
@@ -90,7 +94,7 @@ fn shipped_smc_gains_cut_residual_strain_tenfold_with_the_hub_on_target() {
 
 #[test]
 fn every_shipped_row_settles_its_payload_without_breakdown() {
-    for row in GAIN_TABLE {
+    for row in common::shipped().rows {
         let m = model(row.payload_kg as f64);
         // Each row runs with the shaper it was designed with (none for smc and smc-strain).
         let opts = SimOptions {
@@ -130,18 +134,18 @@ fn every_row_and_every_payload_between_rows_is_quiet_after_ten_seconds() {
     // runs the paper's slew with its scheduled shaper for 10 s; over the last 0.5 s the root
     // strain RMS must be at most 5 ue and the torque RMS at most 0.5 N m.
     let mut payloads: Vec<(LawKind, f32)> = vec![];
-    for w in GAIN_TABLE.windows(2) {
+    for w in common::shipped().rows.windows(2) {
         payloads.push((w[0].law.kind(), w[0].payload_kg));
         if w[0].law.kind() == w[1].law.kind() {
             payloads.push((w[0].law.kind(), (w[0].payload_kg + w[1].payload_kg) / 2.0));
         }
     }
-    let last = GAIN_TABLE.last().unwrap();
+    let last = common::shipped().rows.last().unwrap();
     payloads.push((last.law.kind(), last.payload_kg));
     let mut failed = vec![];
     for (kind, payload) in payloads {
-        let law = schedule(GAIN_TABLE, kind, payload).unwrap();
-        let shaper = model_core::gains::schedule_shaper(GAIN_TABLE, kind, payload);
+        let law = common::shipped().law(kind, payload).unwrap();
+        let shaper = common::shipped().shaper(kind, payload);
         let opts = SimOptions {
             duration_s: 10.0,
             motion: host_tests::sim::Motion {
@@ -177,12 +181,13 @@ fn the_settle_objective_scores_the_settle_time_and_does_not_lose_its_start() {
     let x0 = [start.kp, start.kd, start.ki, start.kq, start.sigma].map(|v| v as f64);
     // The paper's slew with the shipped lqg row's shaper (unshaped, the law saturates).
     let motion = host_tests::sim::Motion {
-        shaper: model_core::gains::schedule_shaper(GAIN_TABLE, LawKind::Lqg, 0.0),
+        shaper: common::shipped().shaper(LawKind::Lqg, 0.0),
         ..Default::default()
     };
     let s = Spec {
         motion,
         kind: LawKind::Lqg,
+        instruments: model_core::Instruments::DEFAULT,
         params: default_params(LawKind::Lqg, &m),
         objective: Objective::Settle(SettleSpec::default()),
         max_err_deg_0_6: None,
@@ -226,7 +231,7 @@ fn every_smc_i_row_switches_hard_enough_to_hold_the_stated_load() {
     // holds a load below Jc A (Jc = Jeff / (1 - c gamma), the blended output's inertia).
     const LOAD_NM: f64 = 0.5;
     let mut rows = 0;
-    for row in GAIN_TABLE {
+    for row in common::shipped().rows {
         let Some(g) = row.law.gains::<model_core::SmcIGains>() else {
             continue;
         };

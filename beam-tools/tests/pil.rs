@@ -5,21 +5,31 @@
 //! built first (`cargo build -p pil --release --target thumbv7em-none-eabihf`, `cargo
 //! pil-fw`, a no-op when it is up to date) so the test never runs a stale binary.
 
+mod common;
+
 use beam_tools::identify::calibrate::read_log;
 use beam_tools::link::pil_host::{build_plugin, paths, run_pil, InsnProfile, PilConfig, PilDrive};
 use beam_tools::link::telemetry::{first_move, write_csv};
 use beam_wire::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
-use firmware::config::{build_controller_for, compiled_law, designed_plant, designs_for};
+use common::shipped;
 use host_tests::metrics::metrics;
 use host_tests::plant::Plant;
 use host_tests::sim::{run, SimOptions};
-use model_core::gains::rows_for;
 use model_core::lqg::LqgDesign;
 use model_core::ControlLaw;
+use model_core::Controller;
 use model_core::LawKind;
 use model_core::{Beam, BeamParams, ModalModel, Mode};
 use std::process::Command;
 use std::sync::OnceLock;
+
+/// The drive of the shipped table (the PIL firmware's) running `kind` at `payload_kg`.
+fn build_controller_for(
+    kind: LawKind,
+    payload_kg: f32,
+) -> Result<Controller<{ beam_drive::config::MOVE_KNOTS }>, beam_drive::config::BuildError> {
+    beam_drive::config::build_controller_for(shipped(), kind, payload_kg)
+}
 
 fn qemu_present() -> bool {
     let found = Command::new("qemu-system-arm")
@@ -96,6 +106,7 @@ fn config(controller: LawKind, plugin: bool) -> PilConfig {
         timeout_s: 300,
         controller,
         payload_kg: 0.0,
+        table: shipped(),
     }
 }
 
@@ -235,8 +246,7 @@ fn a_shaped_move_runs_on_the_drive_exactly_as_on_the_host() {
     }
     // pd-ff's table rows carry a ZVD shaper: the drive plans the shaped move itself (a
     // six-knot spline) and must still match the host build bit for bit.
-    let shaper =
-        model_core::gains::schedule_shaper(model_core::gains::GAIN_TABLE, LawKind::PdFf, 0.0);
+    let shaper = shipped().shaper(LawKind::PdFf, 0.0);
     assert_ne!(
         shaper.kind,
         model_core::ShaperKind::None,
@@ -460,7 +470,8 @@ fn the_observer_laws_run_on_the_drive_exactly_as_on_the_host() {
 /// The drive's observer design at `payload_kg` (the compiled designs, scheduled) and the one
 /// a host tool makes on the modal model there.
 fn designs_at(kind: LawKind, payload_kg: f32) -> (LqgDesign, LqgDesign, ModalModel<3>) {
-    let drive = designed_plant(kind, payload_kg, designs_for(kind))
+    let drive = shipped()
+        .designed_plant(kind, payload_kg)
         .unwrap()
         .design
         .unwrap();
@@ -472,8 +483,8 @@ fn designs_at(kind: LawKind, payload_kg: f32) -> (LqgDesign, LqgDesign, ModalMod
         .unwrap(),
     )
     .unwrap();
-    let law = compiled_law(kind, payload_kg).unwrap();
-    let host = *ControlLaw::try_build(law, &m)
+    let law = shipped().law(kind, payload_kg).unwrap();
+    let host = *ControlLaw::try_build(law, shipped().drive.instruments.on(&m))
         .unwrap()
         .observer_design()
         .unwrap();
@@ -485,14 +496,18 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
     for kind in [LawKind::Lqg, LawKind::SmcModal] {
         // At each point of its grid the build made the design as a host tool makes it: the
         // same, bit for bit. The grid holds every row of the law.
-        let rows = designs_for(kind);
-        for row in rows_for(kind) {
+        let rows: Vec<_> = shipped()
+            .designs
+            .iter()
+            .filter(|d| d.kind == kind)
+            .collect();
+        for row in shipped().rows.iter().filter(|r| r.law.kind() == kind) {
             assert!(
                 rows.iter().any(|d| d.payload_kg == row.payload_kg),
                 "{kind}"
             );
         }
-        for row in rows {
+        for row in &rows {
             let (drive, host, _) = designs_at(kind, row.payload_kg);
             assert_eq!(drive, host, "{kind} at {} kg", row.payload_kg);
         }
@@ -506,8 +521,9 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
                 let mut controller = build_controller_for(kind, payload).unwrap();
                 if !mixed {
                     // The same move and settings, the law designed on the exact model.
+                    let on = shipped().drive.instruments.on(&m);
                     let law =
-                        ControlLaw::try_build(compiled_law(kind, payload).unwrap(), &m).unwrap();
+                        ControlLaw::try_build(shipped().law(kind, payload).unwrap(), on).unwrap();
                     controller.set_law(law).unwrap();
                 }
                 let opts = SimOptions {

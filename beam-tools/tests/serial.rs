@@ -2,10 +2,12 @@
 //! model-core's command handler, ticking in a thread, stand in for the board at the other
 //! end of a real tty.
 
+mod common;
+
+use beam_drive::link::Link;
 use beam_wire::command::Record;
-use firmware::link::Link;
 use model_core::commands::Commander;
-use model_core::{Controller, ControllerSettings, LawKind, RawMeasurement, Spline};
+use model_core::{Controller, LawKind, RawMeasurement, Spline};
 use serialport::{SerialPort, TTYPort};
 use std::io::{Read, Write};
 use std::process::Command;
@@ -18,16 +20,11 @@ use std::time::{Duration, Instant};
 /// `answers` requests and then falls silent (a drive that hangs or a cable pulled).
 fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>, answers: usize) {
     let mut answered = 0;
-    let (mut commander, law) = Commander::try_new(
-        &model_core::gains::PLANT,
-        model_core::gains::GAIN_TABLE,
-        &[],
-        LawKind::PdFf,
-        0.0,
-    )
-    .unwrap();
+    let table = common::shipped();
+    let (mut commander, law) = Commander::try_new(table, LawKind::PdFf, 0.0).unwrap();
     let rest = Spline::try_build(&[(0.0, 0.0), (1.0, 0.0)]).unwrap();
-    let mut ctl = Controller::try_build(ControllerSettings::default(), law, rest).unwrap();
+    let mut ctl =
+        Controller::try_build(table.settings(-std::f32::consts::FRAC_PI_2), law, rest).unwrap();
     let mut link = Link::<4096>::new();
     port.set_timeout(Duration::from_millis(1)).unwrap();
     // A stray byte on the line before the host's first request (noise at power-up): the

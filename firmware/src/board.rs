@@ -1,6 +1,6 @@
 //! The STM32F405RG motor drive: every concrete HAL type, pin and clock is named here and
 //! nowhere else (stabilizer's `hardware` pattern). The rest of the firmware sees embedded-hal
-//! traits through [`firmware::drive::Drive`].
+//! traits through [`beam_drive::drive::Drive`].
 //!
 //! Pin map (an ODrive-style layout: the encoder on TIM3 as on its M0 connector):
 //!
@@ -15,12 +15,12 @@
 //! | START, CLEAR FAULT      | PC0, PC1  | GPIO in, pull-up (active low)     |
 //! | 1 kHz loop tick         | -         | TIM2 update interrupt             |
 
+use beam_drive::ads1220::{self, Ads1220};
+use beam_drive::amplifier::Amplifier;
+use beam_drive::config::{BuildError, MOVE_KNOTS};
+use beam_drive::drive::{Drive, QuadratureCounter};
+use beam_drive::operator::Operator;
 use embedded_hal_bus::spi::ExclusiveDevice;
-use firmware::ads1220::{self, Ads1220};
-use firmware::amplifier::Amplifier;
-use firmware::config::{self, MOVE_KNOTS};
-use firmware::drive::{Drive, QuadratureCounter};
-use firmware::operator::Operator;
 use stm32f4xx_hal::{
     gpio::{Input, Output, Pin, PinState, PushPull},
     pac,
@@ -35,7 +35,7 @@ use stm32f4xx_hal::{
 
 /// The board's crystal, Hz.
 pub const HSE_HZ: u32 = 8_000_000;
-pub use firmware::config::{PWM_HZ, SYSCLK_HZ};
+pub use beam_drive::config::{PWM_HZ, SYSCLK_HZ};
 /// Control loop rate, Hz (model-core's `DEFAULT_TS_S` is its period).
 pub use model_core::LOOP_HZ;
 /// Bridge ADC SPI clock, Hz (the ADS1220 allows up to 6.6 MHz).
@@ -70,7 +70,7 @@ pub type AmpFault = Pin<'B', 14, Input>;
 pub type BoardAdc = Ads1220<AdcBus, AdcReady>;
 /// The amplifier on this board.
 pub type BoardAmplifier =
-    Amplifier<TorquePwm, Direction, Enable, AmpFault, { firmware::config::TORQUE_REVERSED }>;
+    Amplifier<TorquePwm, Direction, Enable, AmpFault, { firmware::TORQUE_REVERSED }>;
 /// The drive on this board.
 pub type BoardDrive = Drive<MOVE_KNOTS, Encoder, BoardAdc, BoardAmplifier>;
 /// The operator's buttons.
@@ -86,19 +86,19 @@ pub struct Board {
     pub loop_timer: CounterHz<pac::TIM2>,
     /// Fed once per tick.
     pub watchdog: IndependentWatchdog,
-    /// The command link's USART1 (PA9 TX, PA10 RX) at `firmware::link::BAUD`.
+    /// The command link's USART1 (PA9 TX, PA10 RX) at `beam_drive::link::BAUD`.
     pub link_tx: Tx1,
     /// See `link_tx`.
     pub link_rx: Rx1,
     /// The command handler, with the compiled-in law and payload.
-    pub commander: model_core::commands::Commander,
+    pub commander: model_core::commands::Commander<'static>,
 }
 
 /// Why the board did not come up. The amplifier is never enabled in any of these cases.
 #[derive(Clone, Copy, Debug, defmt::Format)]
 pub enum BringUpError {
     /// The compiled-in configuration.
-    Config(config::BuildError),
+    Config(BuildError),
     /// The command link's USART could not be configured.
     Link,
     /// The loop timer refused the rate.
@@ -129,14 +129,8 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
     let mut pwm: TorquePwm = pwm.with(gpioa.pa8);
     pwm.enable();
     let fault: AmpFault = gpiob.pb14.into_pull_up_input();
-    let amp = Amplifier::new(
-        pwm,
-        direction,
-        enable,
-        fault,
-        firmware::config::TORQUE_SCALE,
-    )
-    .map_err(|_| BringUpError::Amplifier)?;
+    let amp = Amplifier::new(pwm, direction, enable, fault, firmware::TORQUE_SCALE)
+        .map_err(|_| BringUpError::Amplifier)?;
 
     // PB4 comes out of reset as the JTAG NJTRST (AF0); SWD does not need it.
     let encoder = Encoder(Qei::new(
@@ -172,8 +166,8 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         defmt::error!("bridge ADC: {=str}", what);
     }
 
-    let controller = config::build_controller().map_err(BringUpError::Config)?;
-    let sequence = config::sequence().map_err(BringUpError::Config)?;
+    let controller = firmware::build_controller().map_err(BringUpError::Config)?;
+    let sequence = firmware::sequence().map_err(BringUpError::Config)?;
     let mut drive = Drive::new(controller, encoder, adc, amp);
     if adc_ok.is_err() {
         drive.report_driver_failure();
@@ -189,20 +183,18 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         .USART1
         .serial(
             (gpioa.pa9, gpioa.pa10),
-            serial::Config::default().baudrate(firmware::link::BAUD.bps()),
+            serial::Config::default().baudrate(beam_drive::link::BAUD.bps()),
             &mut rcc,
         )
         .map_err(|_| BringUpError::Link)?;
     let (link_tx, mut link_rx) = link.split();
     link_rx.listen();
     let (commander, _) = model_core::commands::Commander::try_new(
-        &model_core::gains::PLANT,
-        config::ROWS,
-        config::DESIGNS,
-        config::CONTROLLER,
-        config::PAYLOAD_KG,
+        &firmware::TABLE,
+        firmware::CONTROLLER,
+        firmware::PAYLOAD_KG,
     )
-    .map_err(|e| BringUpError::Config(config::BuildError::Setup(e)))?;
+    .map_err(|e| BringUpError::Config(BuildError::Setup(e)))?;
 
     let mut watchdog = IndependentWatchdog::new(dp.IWDG);
     // Halting in the debugger must not reset the drive.

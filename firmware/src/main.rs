@@ -8,7 +8,7 @@
 //! and the queue halves get their `'static` lifetime without `unsafe`.
 //!
 //! Each tick: clear the timer flag, read sensors, `step`, write torque (all in
-//! [`firmware::drive::Drive::tick`]), poll the buttons, feed the watchdog, queue telemetry.
+//! [`beam_drive::drive::Drive::tick`]), poll the buttons, feed the watchdog, queue telemetry.
 //! Nothing in it blocks, allocates or logs. A full queue drops the sample (the tick numbers
 //! in the log show the gap), never the tick.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -20,9 +20,9 @@ mod board;
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
 mod app {
     use crate::board::{self, Board, BoardDrive, BoardOperator};
+    use beam_drive::drive::Telemetry;
+    use beam_drive::link::Link;
     use beam_wire::command::{Outcome, Record, Refusal, Reply};
-    use firmware::drive::Telemetry;
-    use firmware::link::Link;
     use heapless::spsc::{Consumer, Producer, Queue};
     use model_core::commands::Commander;
     use stm32f4xx_hal::pac::Interrupt;
@@ -54,7 +54,7 @@ mod app {
         watchdog: IndependentWatchdog,
         link_tx: Tx1,
         link_rx: Rx1,
-        commander: Commander,
+        commander: Commander<'static>,
         telemetry_in: Producer<'static, Telemetry, TELEMETRY_SLOTS>,
         telemetry_out: Consumer<'static, Telemetry, TELEMETRY_SLOTS>,
     }
@@ -68,9 +68,9 @@ mod app {
         defmt::info!(
             "drive up: {} Hz loop, gains `{}` at {} kg, commands at {} baud",
             board::LOOP_HZ,
-            firmware::config::CONTROLLER.name(),
-            firmware::config::PAYLOAD_KG,
-            firmware::link::BAUD
+            firmware::CONTROLLER.name(),
+            firmware::PAYLOAD_KG,
+            beam_drive::link::BAUD
         );
         let Board {
             drive,

@@ -4,11 +4,12 @@
 //! These check the firmware's glue (what reaches `step`, what reaches the pins), not the
 //! control law, which model-core and host-tests cover.
 
-use firmware::ads1220::{code_from_bytes, Ads1220};
-use firmware::amplifier::{Amplifier, TorqueScale};
-use firmware::config::{build_controller, sequence, MOVE_KNOTS};
-use firmware::drive::{Command, Drive, Telemetry, MAX_STALE_TICKS};
-use firmware::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm, MAX_DUTY};
+use beam_drive::ads1220::{code_from_bytes, Ads1220};
+use beam_drive::amplifier::{Amplifier, TorqueScale};
+use beam_drive::config::MOVE_KNOTS;
+use beam_drive::drive::{Command, Drive, Telemetry, MAX_STALE_TICKS};
+use beam_drive::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm, MAX_DUTY};
+use firmware::{build_controller, sequence};
 use model_core::{CommandError, FaultFlags, Mode};
 
 type TestDrive = Drive<

@@ -9,26 +9,25 @@ use beam_wire::command::{Command, Outcome, Request};
 use beam_wire::{decode, encode, FrameReader, MAX_FRAME};
 use libfuzzer_sys::fuzz_target;
 use model_core::commands::{CommandedController, Commander};
-use model_core::{Controller, ControllerSettings, LawKind, Mode, RawMeasurement, Spline};
+use model_core::{Controller, LawKind, Mode, RawMeasurement, Spline};
 use std::sync::OnceLock;
 
 /// The drive in each state a command can meet, built once: idle, a move answered but not
 /// yet started, slewing, holding, faulted, and idle with the hub coasting (the torque off).
 /// The input's first byte picks one.
-fn drives() -> &'static [(Commander, CommandedController)] {
-    static DRIVES: OnceLock<Vec<(Commander, CommandedController)>> = OnceLock::new();
+fn drives() -> &'static [(Commander<'static>, CommandedController)] {
+    static DRIVES: OnceLock<Vec<(Commander<'static>, CommandedController)>> = OnceLock::new();
     DRIVES.get_or_init(|| {
-        let (commander, law) = Commander::try_new(
-            &model_core::gains::PLANT,
-            model_core::gains::GAIN_TABLE,
-            &[],
-            LawKind::PdFf,
-            0.0,
-        )
-        .expect("the shipped configuration builds");
+        // The shipped table, loaded as the host tools load it.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml");
+        let table = gain_table::open(&path)
+            .expect("the shipped table loads")
+            .leak();
+        let (commander, law) = Commander::try_new(table, LawKind::PdFf, 0.0)
+            .expect("the shipped configuration builds");
         let rest = Spline::try_build(&[(0.0, 0.0), (1.0, 0.0)]).expect("a rest move");
-        let mut ctl = Controller::try_build(ControllerSettings::default(), law, rest)
-            .expect("default settings build");
+        let settings = table.settings(-core::f32::consts::FRAC_PI_2);
+        let mut ctl = Controller::try_build(settings, law, rest).expect("the settings build");
         // A few idle ticks, so the handler sees a measured angle.
         let raw = RawMeasurement::default();
         let ticks = |ctl: &mut CommandedController, n: usize, raw: &RawMeasurement| {
@@ -56,7 +55,6 @@ fn drives() -> &'static [(Commander, CommandedController)] {
         ticks(&mut slewing.1, 10, &raw);
         // Holding: the hub follows the move to its end (the encoder reads the reference).
         let mut holding = go(0.5);
-        let settings = ControllerSettings::default();
         let rad_per_count = settings.encoder.rad_per_count() as f32;
         for k in 0..4000u32 {
             let pos = holding.1.spline().eval(k as f32 * 1e-3).pos - settings.theta_home_rad;

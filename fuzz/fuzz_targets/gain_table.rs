@@ -1,6 +1,7 @@
 //! The gain-table parser on arbitrary text: never a panic; a table that parses renders to
-//! text that parses to the same table, and a table that parses generates its source (its
-//! plant's model builds).
+//! text that parses to the same table, and builds into a drive's configuration (its plant's
+//! model, its observer designs) or says why not, and a table that builds generates the
+//! board's source.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -13,6 +14,9 @@ fuzz_target!(|data: &[u8]| {
         let again = gain_table::parse(&gain_table::render(&table), "rendered.toml")
             .expect("a rendered table parses");
         assert_eq!(table, again);
-        gain_table::generate_rust(&table).expect("a parsed table generates");
+        if let Ok(built) = table.drive_table() {
+            let source = gain_table::generate_rust(&built);
+            assert!(source.contains("pub const DRIVE"));
+        }
     }
 });

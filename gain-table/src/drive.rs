@@ -63,7 +63,7 @@ fn is_false(b: &bool) -> bool {
 impl Default for DriveSpec {
     fn default() -> Self {
         Self {
-            law: LawKind::Smc,
+            law: LawKind::DEFAULT_DRIVE,
             payload_kg: 0.0,
             encoder_counts_per_rev: 16384,
             encoder_counter_bits: 16,
@@ -148,26 +148,28 @@ impl DriveSpec {
             toml::to_string(self).unwrap_or_else(|e| format!("# {e}\n"))
         )
     }
+}
 
-    /// Rust source for `DRIVE: crate::gains::DriveConfig`.
-    pub(crate) fn generate(&self) -> String {
-        format!(
-            "/// The drive the table configures (its `[drive]`).\n\
-             pub const DRIVE: crate::gains::DriveConfig = crate::gains::DriveConfig {{\n    \
-             law: ::beam_kinds::LawKind::{:?},\n    payload_kg: {:?},\n    \
-             encoder: crate::measure::EncoderSpec {{ counts_per_rev: {}, counter_bits: {}, reversed: {} }},\n    \
-             adc: crate::measure::AdcSpec {{ bits: {}, full_scale_strain: {:?}, reversed: {} }},\n    \
-             torque_full_scale_nm: {:?},\n    torque_reversed: {},\n}};\n",
-            self.law,
-            self.payload_kg as f32,
-            self.encoder_counts_per_rev,
-            self.encoder_counter_bits,
-            self.encoder_reversed,
-            self.adc_bits,
-            self.strain_full_scale,
-            self.strain_reversed,
-            self.torque_full_scale_nm as f32,
-            self.torque_reversed
-        )
-    }
+/// Rust source for `DRIVE: DriveConfig`, in the drive's `f32`.
+pub(crate) fn generate(d: &model_core::DriveConfig) -> String {
+    let (e, a) = (d.instruments.encoder, d.instruments.adc);
+    format!(
+        "/// The drive the table configures (its `[drive]`).\n\
+         pub const DRIVE: ::model_core::DriveConfig = ::model_core::DriveConfig {{\n    \
+         law: ::model_core::LawKind::{:?},\n    payload_kg: {:?},\n    \
+         instruments: ::model_core::Instruments {{\n        \
+         encoder: ::model_core::EncoderSpec {{ counts_per_rev: {}, counter_bits: {}, reversed: {} }},\n        \
+         adc: ::model_core::AdcSpec {{ bits: {}, full_scale_strain: {:?}, reversed: {} }},\n    }},\n    \
+         torque_full_scale_nm: {:?},\n    torque_reversed: {},\n}};\n",
+        d.law,
+        d.payload_kg,
+        e.counts_per_rev,
+        e.counter_bits,
+        e.reversed,
+        a.bits,
+        a.full_scale_strain,
+        a.reversed,
+        d.torque_full_scale_nm,
+        d.torque_reversed
+    )
 }

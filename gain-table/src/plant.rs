@@ -178,27 +178,11 @@ impl PlantSpec {
         // S is affine in the payload: its slope is the difference at 1 kg (taken in f64,
         // then rounded once, like every number the drive gets).
         let m1 = self.model::<N>(1.0)?;
-        let base = PlantPoint::of(&m0);
-        let pad = |v: &[f64; N]| -> [f32; MAX_MODES] {
-            core::array::from_fn(|i| if i < N { v[i] as f32 } else { 0.0 })
-        };
         let mut first_hz = Vec::with_capacity(payloads.len());
         for &p in &payloads {
             first_hz.push((p as f32, self.model::<N>(p)?.clamped_hz[0] as f32));
         }
-        let plant = Plant {
-            params: self.params,
-            modes: N,
-            base,
-            arm_m: (self.params.hub_radius_m + self.params.length_m) as f32,
-            damping_ratio: self.params.damping_ratio as f32,
-            h: pad(&m0.h),
-            tip_shape: pad(&m0.tip_coef),
-            tip_minv: pad(&beam_model::linalg::mat_vec(&m0.mqq_inv, &m0.tip_coef)),
-            s_col0_per_kg: pad(&core::array::from_fn(|i| m1.s[i][0] - m0.s[i][0])),
-            mqq00: m0.mqq[0][0] as f32,
-            first_hz: &[],
-        };
+        let plant = Plant::from_models(self.params, &m0, &m1, &[]);
         Ok(PlantParts { plant, first_hz })
     }
 }
@@ -226,7 +210,7 @@ impl PlantParts {
 
 fn point_source(q: &PlantPoint) -> String {
     format!(
-        "::beam_model::plant::PlantPoint {{ payload_kg: {:?}, torque_limit_nm: {:?}, \
+        "::model_core::plant::PlantPoint {{ payload_kg: {:?}, torque_limit_nm: {:?}, \
          viscous_nms: {:?}, coulomb_nm: {:?}, mtt: {:?}, jeff: {:?}, root_strain_coef: {:?}, \
          minv_h: {:?}, minv_e: {:?}, kqq_col0: {:?}, cq_col0: {:?}, s_col0: {:?} }}",
         q.payload_kg,
@@ -252,9 +236,9 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
     out.push_str(
         "/// The plant the gain table was designed for (its `[plant]`), computed on the host.\n",
     );
-    out.push_str("pub const PLANT: ::beam_model::plant::Plant = ::beam_model::plant::Plant {\n");
+    out.push_str("pub const PLANT: ::model_core::plant::Plant = ::model_core::plant::Plant {\n");
     out.push_str(&format!(
-        "    params: ::beam_model::BeamParams {{ length_m: {:?}, width_m: {:?}, thickness_m: {:?}, \
+        "    params: ::model_core::BeamParams {{ length_m: {:?}, width_m: {:?}, thickness_m: {:?}, \
          hub_radius_m: {:?}, density_kg_m3: {:?}, ei_nm2: {:?}, jm_kgm2: {:?}, viscous_nms: {:?}, \
          coulomb_nm: {:?}, tip_mass_kg: {:?}, damping_ratio: {:?}, root_gauge_m: {:?}, \
          mid_gauge_m: {:?}, torque_limit_nm: {:?} }},\n",

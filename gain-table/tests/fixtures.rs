@@ -63,6 +63,6 @@ fn the_steel_example_table_names_its_parameter_file_as_its_plant() {
     let params: beam_model::BeamParams = toml::from_str(&text).unwrap();
     assert_eq!(table.plant.params, params);
     assert_eq!(table.plant.modes, 3);
-    let source = gain_table::generate_rust(&table).unwrap();
+    let source = gain_table::generate_rust(&table.drive_table().unwrap());
     assert!(source.contains("density_kg_m3: 7850.0"), "{source}");
 }

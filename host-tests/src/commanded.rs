@@ -7,7 +7,7 @@ use crate::sensors::{SensorConfig, Sensors};
 use crate::sim::{settings_for, Integrator, SimError};
 use beam_wire::command::{Command, Outcome, Reply, Request};
 use model_core::commands::{CommandedController, Commander};
-use model_core::gains::DesignRow;
+use model_core::DriveTable;
 use model_core::{
     BeamParams, Controller, LawKind, ModalModel, Mode, RawMeasurement, Spline, TorqueCommand,
 };
@@ -139,31 +139,30 @@ pub trait CommandedDrive {
 }
 
 /// model-core's command handler and controller, run on the host: the drive the firmware
-/// is, on the compiled plant (model-core's `PLANT`).
+/// is, on a drive's configuration passed in.
 #[derive(Clone, Debug, PartialEq)]
-pub struct HostDrive {
+pub struct HostDrive<'t> {
     /// The handler.
-    pub commander: Commander,
+    pub commander: Commander<'t>,
     /// The controller.
     pub controller: CommandedController,
 }
 
-impl HostDrive {
-    /// The drive running `kind` on the compiled plant carrying `payload_kg` (the initial
+impl<'t> HostDrive<'t> {
+    /// The drive running `kind` on `table`'s plant carrying `payload_kg` (the initial
     /// setting), idle at `home_rad`, with settings matching `sensors` (for the `N`-mode
-    /// model of that plant). An observer law runs on `designs`, the designs a drive's build
-    /// made (the firmware's `config::designs_for`); without them it is refused, as on a drive.
+    /// model of that plant). An observer law runs on the table's designs; without them it is
+    /// refused, as on a drive.
     pub fn try_new<const N: usize>(
+        table: &'t DriveTable<'t>,
         payload_kg: f32,
         kind: LawKind,
-        designs: &'static [DesignRow],
         home_rad: f32,
         sensors: &SensorConfig,
     ) -> Result<Self, SimError> {
-        let (plant, table) = (&model_core::gains::PLANT, model_core::gains::GAIN_TABLE);
-        let (commander, law) = Commander::try_new(plant, table, designs, kind, payload_kg)
+        let (commander, law) = Commander::try_new(table, kind, payload_kg)
             .map_err(|e| SimError::Drive(Box::new(e)))?;
-        let drive = plant.params_with(payload_kg as f64);
+        let drive = table.plant.params_with(payload_kg as f64);
         let nominal = ModalModel::<N>::try_build(&model_core::Beam::try_build(drive)?)?;
         let settings = model_core::ControllerSettings {
             theta_home_rad: home_rad,
@@ -180,7 +179,7 @@ impl HostDrive {
     }
 }
 
-impl CommandedDrive for HostDrive {
+impl CommandedDrive for HostDrive<'_> {
     fn handle(&mut self, request: &Request) -> Result<Reply, SimError> {
         Ok(self.commander.handle(&mut self.controller, request))
     }
@@ -191,19 +190,19 @@ impl CommandedDrive for HostDrive {
 }
 
 /// Runs `script` against the beam `plant` with model-core's handler on the host, the
-/// drive running `kind` (an observer law on `designs`, see [`HostDrive::try_new`]) on the
-/// compiled plant carrying `payload_kg` (the initial setting), from rest at `home_rad`.
+/// drive running `kind` on `table` (see [`HostDrive::try_new`]) carrying `payload_kg` (the
+/// initial setting), from rest at `home_rad`.
 #[allow(clippy::too_many_arguments)] // the drive's settings, then the run's
 pub fn run_commands<const N: usize>(
     plant: BeamParams,
+    table: &DriveTable<'_>,
     payload_kg: f32,
     kind: LawKind,
-    designs: &'static [DesignRow],
     home_rad: f32,
     script: &[Step],
     sensors: SensorConfig,
 ) -> Result<CommandedRun, SimError> {
-    let mut host = HostDrive::try_new::<N>(payload_kg, kind, designs, home_rad, &sensors)?;
+    let mut host = HostDrive::try_new::<N>(table, payload_kg, kind, home_rad, &sensors)?;
     run_script::<N, _>(plant, &mut host, home_rad, script, sensors)
 }
 

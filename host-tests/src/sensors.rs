@@ -5,7 +5,7 @@
 //! strain bridge is an ADC code with an offset, seeded Gaussian noise, rounding and clipping
 //! at the rails. Seeded, so every run is reproducible.
 
-use model_core::{AdcSpec, EncoderSpec, RawMeasurement};
+use model_core::{AdcSpec, EncoderSpec, Instruments, RawMeasurement};
 use rand::{rngs::StdRng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
@@ -24,16 +24,34 @@ pub struct SensorConfig {
     pub seed: u64,
 }
 
-impl Default for SensorConfig {
-    fn default() -> Self {
+impl SensorConfig {
+    /// Sensors with `instruments` (a drive's table's, or a rig's): a bridge offset of 1234
+    /// codes, 0.5 ue of strain noise, seed 1.
+    pub fn reading(instruments: Instruments) -> Self {
         Self {
-            // The compiled drive's instruments (the gain table's `[drive]`).
-            encoder: model_core::gains::DRIVE.encoder,
-            adc: model_core::gains::DRIVE.adc,
+            encoder: instruments.encoder,
+            adc: instruments.adc,
             adc_offset_code: 1234,
             strain_noise_std: 0.5e-6,
             seed: 1,
         }
+    }
+
+    /// The instruments these sensors are.
+    pub fn instruments(&self) -> Instruments {
+        Instruments {
+            encoder: self.encoder,
+            adc: self.adc,
+        }
+    }
+}
+
+/// The reference drive's instruments ([`Instruments::DEFAULT`], which a gain table's `[drive]`
+/// starts from), read as [`SensorConfig::reading`] reads them. A tool simulating a drive
+/// passes its table's ([`SensorConfig::reading`]).
+impl Default for SensorConfig {
+    fn default() -> Self {
+        Self::reading(Instruments::DEFAULT)
     }
 }
 

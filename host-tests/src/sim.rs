@@ -326,7 +326,7 @@ pub fn settings_for<const N: usize>(
         adc: sensors.adc,
         theta_home_rad: paper_slew::FROM_RAD,
         torque_limit_nm: model.beam.params().torque_limit_nm as f32,
-        ..ControllerSettings::default()
+        ..ControllerSettings::new(sensors.instruments())
     }
 }
 
@@ -359,7 +359,9 @@ pub fn simulate_mismatched<const N: usize>(
     };
     // The planner's limits for this law (a floor on the move's time for the lqg law).
     let limits = Limits::for_law(nominal, &law);
-    let law = ControlLaw::try_build(law, nominal).map_err(|e| SimError::Config(e.into()))?;
+    // Designed on the instruments the loop reads (an observer law's noise is theirs).
+    let on = opts.sensors.instruments().on(nominal);
+    let law = ControlLaw::try_build(law, on).map_err(|e| SimError::Config(e.into()))?;
     let controller = Controller::try_build(settings, law, opts.motion.plan(&limits)?)
         .map_err(SimError::Config)?;
     run(Plant::new(*plant), controller, opts)

@@ -5,6 +5,8 @@
 //! (docs/design.md, section 2: the model leaves its range within about 0.2 s); the
 //! sliding-mode controller must leave less residual vibration than the PD baseline.
 
+mod common;
+
 use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, Integrator, SimOptions, HAND_PICKED_SMC, HAND_PICKED_SMC_STRAIN};
 use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
@@ -216,9 +218,9 @@ fn the_integral_sliding_mode_rejects_a_load_below_jeff_a() {
         switching: model_core::Switching::Tanh,
     }));
     assert!(dev < 0.02, "smc-i still {dev} deg off under the load");
-    let paper =
-        model_core::gains::schedule(model_core::gains::GAIN_TABLE, model_core::LawKind::Smc, 0.0)
-            .unwrap();
+    let paper = common::shipped()
+        .law(model_core::LawKind::Smc, 0.0)
+        .unwrap();
     let (paper_dev, _) = deviation_under_load(paper);
     assert!(
         paper_dev > 10.0 * dev.max(0.01),

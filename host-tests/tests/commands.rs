@@ -1,6 +1,8 @@
 //! The command protocol against the simulated beam: a session of moves, waypoints, a payload
 //! change, a stop and a fault, carried out by model-core's command handler.
 
+mod common;
+
 use beam_wire::command::{Command, Outcome, Refusal};
 use host_tests::commanded::{run_commands, session_script, CommandedRun, Step};
 use host_tests::sensors::SensorConfig;
@@ -26,9 +28,9 @@ fn session(kind: LawKind) -> CommandedRun {
     let drive = BeamParams::aluminium();
     run_commands::<3>(
         drive,
+        common::shipped(),
         0.0,
         kind,
-        &[],
         0.0,
         &session_script(),
         SensorConfig::default(),
@@ -186,9 +188,9 @@ fn every_refusal_leaves_the_drive_as_it_was() {
     ];
     let run = run_commands::<3>(
         drive,
+        common::shipped(),
         0.0,
         LawKind::PdFf,
-        &[],
         0.0,
         &script,
         SensorConfig::default(),
@@ -233,9 +235,9 @@ fn every_refusal_leaves_the_drive_as_it_was() {
 fn run(kind: LawKind, home_deg: f32, script: &[Step]) -> CommandedRun {
     run_commands::<3>(
         BeamParams::aluminium(),
+        common::shipped(),
         0.0,
         kind,
-        &[],
         home_deg * DEG,
         script,
         SensorConfig::default(),
@@ -372,7 +374,7 @@ fn the_stated_range_is_the_real_one_and_moves_have_a_longest_time() {
                 time_s: Some(model_core::planner::MAX_MOVE_S + 1.0),
             }),
             Step::Send(Command::SetPayload {
-                kg: model_core::gains::PLANT.max_payload_kg() + 0.01,
+                kg: common::shipped().plant.max_payload_kg() + 0.01,
             }),
             Step::Send(Command::Status),
         ],

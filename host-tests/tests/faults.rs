@@ -18,14 +18,15 @@
 //! slow gauge drift the law does not use), tripping would only turn a recoverable moment into
 //! a stopped machine, so the drive rides through and the test checks that it is safe.
 
+mod common;
+
 use host_tests::metrics::metrics;
 use host_tests::sim::{simulate, FaultKind, Injection, SimOptions, SimResult};
 use model_core::controller::{STALL_TICKS, STALL_TORQUE_FRACTION};
-use model_core::gains::{schedule, GAIN_TABLE};
 use model_core::{Beam, BeamParams, FaultFlags, Law, LawKind, ModalModel, Mode};
 
 fn smc() -> Law {
-    schedule(GAIN_TABLE, LawKind::Smc, 0.0).unwrap()
+    common::shipped().law(LawKind::Smc, 0.0).unwrap()
 }
 
 fn run(kind: FaultKind, at_s: f64, duration_s: f64) -> SimResult {

@@ -6,6 +6,8 @@
 //! over a 180 deg slew at each payload, and on beams whose EI, density and hub inertia are
 //! off by 20 % from the model the observer was designed on.
 
+mod common;
+
 use host_tests::plant::Plant;
 use host_tests::sim::{
     run_with, settings_for, DriveLoop, Motion, SimError, SimOptions, HAND_PICKED_LQG,
@@ -50,11 +52,7 @@ fn errors(plant: BeamParams, nominal: BeamParams) -> (f64, f64, f64) {
     let (p, n) = (model(plant), model(nominal));
     // The move the drive makes: 180 deg at the planner's shortest time, with the shipped
     // lqg rows' shaper for the payload the drive was told.
-    let shaper = model_core::gains::schedule_shaper(
-        model_core::gains::GAIN_TABLE,
-        model_core::LawKind::Lqg,
-        nominal.tip_mass_kg as f32,
-    );
+    let shaper = common::shipped().shaper(model_core::LawKind::Lqg, nominal.tip_mass_kg as f32);
     let opts = SimOptions {
         duration_s: 1.5,
         idle_ticks: 0,
@@ -69,7 +67,8 @@ fn errors(plant: BeamParams, nominal: BeamParams) -> (f64, f64, f64) {
         theta_home_rad: opts.motion.from_rad,
         ..settings_for(&n, &opts.sensors)
     };
-    let law = ControlLaw::try_build(Law::Lqg(HAND_PICKED_LQG), &n).unwrap();
+    let law = ControlLaw::try_build(Law::Lqg(HAND_PICKED_LQG), opts.sensors.instruments().on(&n))
+        .unwrap();
     let lqg = Law::Lqg(HAND_PICKED_LQG);
     let spline = opts.motion.plan(&Limits::for_law(&n, &lqg)).unwrap();
     let reference = spline.clone();

@@ -16,55 +16,26 @@
 //! torque was off) brakes it, so that a hub that coasted out of the range can be stopped and
 //! then moved back into it.
 
-use crate::beam::ParamError;
 use crate::controller::{Controller, Mode, Snapshot};
 use crate::error::{CommandError, PlanError};
-use crate::gains::{schedule_shaper, scheduled_law, DesignRow, GainRow};
 use crate::law::{ControlLaw, LawKind};
 use crate::planner::{
     plan_brake, plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS,
 };
 use crate::plant::Plant;
 use crate::shaper::Shaper;
+use crate::table::DriveTable;
+pub use crate::table::SetupError;
 pub use beam_wire::command::{Command, Outcome, Refusal, Reply, Request, Status};
-use core::fmt;
 
 /// The controller a commanded drive runs: its moves are planned, shaped moves.
 pub type CommandedController = Controller<SHAPED_PLAN_KNOTS>;
 
-/// Why the drive's configuration could not be built for a payload.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum SetupError {
-    /// The payload is outside the plant's range, 0 to [`Plant::max_payload_kg`] (the
-    /// table's heaviest row).
-    Payload,
-    /// The gain table has no row for the law.
-    NoGains,
-    /// The scheduled gains are invalid for the model.
-    Gains(ParamError),
-}
-
-impl fmt::Display for SetupError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SetupError::Payload => f.write_str("the payload is outside the plant's payload range"),
-            SetupError::NoGains => f.write_str("the gain table has no row for the law"),
-            SetupError::Gains(e) => write!(f, "gains: {e}"),
-        }
-    }
-}
-
-impl core::error::Error for SetupError {}
-
 /// What the handler keeps between commands: the plant, the table, the law, and what is
 /// scheduled for the present payload.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Commander {
-    plant: &'static Plant,
-    table: &'static [GainRow],
-    /// The observer laws' designs ([`crate::gains::schedule_design`]; empty for the others).
-    designs: &'static [DesignRow],
+pub struct Commander<'t> {
+    table: &'t DriveTable<'t>,
     kind: LawKind,
     payload_kg: f32,
     limits: Limits,
@@ -74,24 +45,18 @@ pub struct Commander {
     current: Option<Plan>,
 }
 
-impl Commander {
-    /// The handler for `kind` on `plant` carrying `payload_kg`, with the law to build the
-    /// controller with. A drive passes the compiled [`crate::gains::PLANT`] and
-    /// [`crate::gains::GAIN_TABLE`], and for an observer law (lqg, smc-modal, with the
-    /// `observer` feature) the designs its build made (`designs`; without them, or without
-    /// the feature, such a law is refused).
+impl<'t> Commander<'t> {
+    /// The handler for `kind` on `table`'s drive carrying `payload_kg`, with the law to build
+    /// the controller with. An observer law (lqg, smc-modal) needs the `observer` feature and
+    /// the table's designs; without them it is refused.
     pub fn try_new(
-        plant: &'static Plant,
-        table: &'static [GainRow],
-        designs: &'static [DesignRow],
+        table: &'t DriveTable<'t>,
         kind: LawKind,
         payload_kg: f32,
     ) -> Result<(Self, ControlLaw), SetupError> {
-        let (law, shaper, limits) = configure(plant, table, designs, kind, payload_kg)?;
+        let (law, shaper, limits) = table.configure(kind, payload_kg)?;
         let me = Self {
-            plant,
             table,
-            designs,
             kind,
             payload_kg,
             limits,
@@ -103,8 +68,13 @@ impl Commander {
     }
 
     /// The plant the drive is built for.
-    pub fn plant(&self) -> &'static Plant {
-        self.plant
+    pub fn plant(&self) -> &'t Plant {
+        self.table.plant
+    }
+
+    /// The drive's configuration.
+    pub fn table(&self) -> &'t DriveTable<'t> {
+        self.table
     }
 
     /// The planner's limits for the present payload.
@@ -178,12 +148,10 @@ impl Commander {
             Command::SetPayload { kg } => {
                 ready?;
                 let (law, shaper, limits) =
-                    configure(self.plant, self.table, self.designs, self.kind, *kg).map_err(
-                        |e| match e {
-                            SetupError::NoGains => Refusal::NoGains,
-                            SetupError::Payload | SetupError::Gains(_) => Refusal::BadArgument,
-                        },
-                    )?;
+                    self.table.configure(self.kind, *kg).map_err(|e| match e {
+                        SetupError::NoGains => Refusal::NoGains,
+                        SetupError::Payload | SetupError::Gains(_) => Refusal::BadArgument,
+                    })?;
                 Ok(Action::SetPayload(Schedule {
                     payload_kg: *kg,
                     law,
@@ -393,68 +361,18 @@ fn refusal(e: CommandError) -> Refusal {
     }
 }
 
-/// The law, shaper and limits for `kind` on `plant` carrying `payload_kg`. An observer law
-/// is built on its design from `designs`, scheduled on the payload; its moves last at least
-/// its [`crate::Law::min_move_periods`] of the first clamped period, as
-/// [`Limits::for_law`] plans them on a modal model.
-fn configure(
-    plant: &Plant,
-    table: &[GainRow],
-    designs: &[DesignRow],
-    kind: LawKind,
-    payload_kg: f32,
-) -> Result<(ControlLaw, Shaper, Limits), SetupError> {
-    let point = plant.at(payload_kg).ok_or(SetupError::Payload)?;
-    let gains = scheduled_law(table, kind, payload_kg).ok_or(SetupError::NoGains)?;
-    #[cfg(feature = "observer")]
-    let law = ControlLaw::try_build(
-        gains,
-        crate::gains::DesignedPlant {
-            point,
-            design: crate::gains::schedule_design(designs, kind, payload_kg),
-        },
-    );
-    // Without the feature an observer law is refused whatever the designs (and the board,
-    // built so, links nothing of them).
-    #[cfg(not(feature = "observer"))]
-    let law = {
-        let _ = designs;
-        ControlLaw::try_build(gains, point)
-    };
-    let law = law.map_err(SetupError::Gains)?;
-    #[allow(unused_mut)]
-    let mut limits = Limits::for_plant(point);
-    // Only the observer laws ask for a floor (the board, built without them, has no flash
-    // to spare for this).
-    #[cfg(feature = "observer")]
-    {
-        let periods = gains.min_move_periods();
-        if periods > 0.0 {
-            if let Some(hz) = plant.first_hz_at(payload_kg).filter(|&hz| hz > 0.0) {
-                limits.min_segment_s = periods / hz;
-            }
-        }
-    }
-    Ok((law, schedule_shaper(table, kind, payload_kg), limits))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::controller::{ControllerSettings, RawMeasurement};
+    use crate::controller::RawMeasurement;
     use crate::spline::Spline;
 
-    fn drive() -> (Commander, CommandedController) {
-        let (commander, law) = Commander::try_new(
-            &crate::gains::PLANT,
-            crate::gains::GAIN_TABLE,
-            &[],
-            LawKind::PdFf,
-            0.0,
-        )
-        .unwrap();
+    fn drive() -> (Commander<'static>, CommandedController) {
+        let rows = crate::table::tests::rows(LawKind::PdFf, &[0.0, 0.05]);
+        let table = crate::table::tests::table(rows);
+        let (commander, law) = Commander::try_new(table, LawKind::PdFf, 0.0).unwrap();
         let rest = Spline::try_build(&[(0.0, 0.0), (1.0, 0.0)]).unwrap();
-        let ctl = Controller::try_build(ControllerSettings::default(), law, rest).unwrap();
+        let ctl = Controller::try_build(table.settings(0.0), law, rest).unwrap();
         (commander, ctl)
     }
 
@@ -507,7 +425,7 @@ mod tests {
     fn a_payload_is_scheduled_on_the_model_built_with_it_and_refused_past_the_table() {
         let (c, ctl) = drive();
         let snap = ctl.snapshot();
-        let plant = &crate::gains::PLANT;
+        let plant = c.plant();
         let heaviest = plant.max_payload_kg();
         for kg in [0.6 * heaviest, heaviest] {
             let Ok(Action::SetPayload(s)) = c.prepare(&Command::SetPayload { kg }, &snap) else {

@@ -14,6 +14,7 @@
 pub use crate::error::{CommandError, ConfigError};
 use crate::error::{ParamError, ParamErrorKind};
 use crate::law::{ControlLaw, Estimate, LawState};
+use crate::measure::Instruments;
 use crate::measure::{
     angle_rad, AdcSpec, CounterExtender, CounterWidth, EncoderSpec, FixedRate, LowPass,
 };
@@ -182,13 +183,16 @@ pub struct ControllerSettings {
     pub strain_offset_code: i32,
 }
 
-impl Default for ControllerSettings {
-    fn default() -> Self {
+impl ControllerSettings {
+    /// The settings of a loop reading `instruments`: the paper's 1 kHz, the counter zeroed at
+    /// -90 deg (where the paper's slew starts), 200 Hz filters, the reference drive's 10 N m
+    /// and its fault thresholds. A drive's own come from its table
+    /// ([`DriveTable::settings`](crate::table::DriveTable::settings)).
+    pub const fn new(instruments: Instruments) -> Self {
         Self {
             ts_s: crate::DEFAULT_TS_S,
-            // The compiled drive's instruments (the gain table's `[drive]`).
-            encoder: crate::gains::DRIVE.encoder,
-            adc: crate::gains::DRIVE.adc,
+            encoder: instruments.encoder,
+            adc: instruments.adc,
             theta_home_rad: -core::f32::consts::FRAC_PI_2,
             velocity_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,
             strain_rate_cutoff_hz: LowPass::DEFAULT_CUTOFF_HZ,
@@ -199,6 +203,14 @@ impl Default for ControllerSettings {
             max_strain: 3000e-6,
             start_tolerance_rad: 0.05,
             strain_offset_code: 0,
+        }
+    }
+
+    /// The instruments the loop reads.
+    pub const fn instruments(&self) -> Instruments {
+        Instruments {
+            encoder: self.encoder,
+            adc: self.adc,
         }
     }
 }

@@ -158,14 +158,12 @@ pub trait LawGains: GainLayout {
 }
 
 /// The one law a drive built with model-core's `drive-law-only` feature holds (the board:
-/// `cargo fw`): its compiled table's `[drive]` law. Every other law is refused when it is
-/// built ([`ParamErrorKind::NotBuiltIn`]), and its code is not in the binary. `None` without
-/// the feature (the host, the PIL drive): every law.
-pub const ONLY_LAW: Option<LawKind> = if cfg!(feature = "drive-law-only") {
-    Some(crate::gains::DRIVE.law)
-} else {
-    None
-};
+/// `cargo fw`): the `[drive] law` of the gain table the board is built from, which this
+/// crate's build script reads for that feature alone (`BEAM_GAIN_TABLE`, or the repository's
+/// `gains.toml`), so that the other laws' code is not in the board's binary. Every other law
+/// is refused when it is built ([`ParamErrorKind::NotBuiltIn`]). `None` without the feature
+/// (the host, the PIL drive): every law, and no table is read.
+pub const ONLY_LAW: Option<LawKind> = include!(concat!(env!("OUT_DIR"), "/only_law.rs"));
 
 /// Whether this build holds law `kind` ([`ONLY_LAW`]). A constant wherever `kind` is, so the
 /// dispatch below drops the other laws' arms.
@@ -402,8 +400,8 @@ pub trait LawPlant {
     /// The plant's numbers the laws read.
     fn point(&self) -> PlantPoint;
     /// The LQG design for `gains` on this plant, sampled at `ts_s`; `None` if this plant
-    /// cannot design one (a [`PlantPoint`]). A [`ModalModel`] designs it with the compiled
-    /// `[drive]`'s instruments as the sensor noise (in `crate::gains`, which knows them).
+    /// cannot design one (a [`PlantPoint`], a bare [`ModalModel`]). A modal model read
+    /// through instruments (`crate::table::Instrumented`) designs it with their noise.
     fn lqg(&self, _gains: &LqgGains, _ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
         None
     }
@@ -450,10 +448,11 @@ pub struct ControlLaw {
 
 impl ControlLaw {
     /// Validates `law`'s gains and precomputes what the tick needs from the plant: a
-    /// [`PlantPoint`] (the drive's compiled plant at its payload) or a [`ModalModel`]. The
-    /// LQG law is designed on a modal model only (sampled at [`crate::DEFAULT_TS_S`], with
-    /// the compiled `[drive]`'s instruments as its sensor noise); on a [`PlantPoint`] it is
-    /// refused.
+    /// [`PlantPoint`] (a drive's plant at its payload), a [`ModalModel`], or a modal model
+    /// read through instruments (`crate::table::Instruments::on`). The observer laws are
+    /// designed on the last only (sampled at [`crate::DEFAULT_TS_S`], with the instruments'
+    /// noise as the observer's); on the others they are refused.
+    #[inline(never)] // one copy per plant type: the board builds a law in two places
     pub fn try_build(law: Law, plant: impl LawPlant) -> Result<Self, ParamError> {
         let point = plant.point();
         let plain = Self {
@@ -517,7 +516,7 @@ fn integrate(z: f32, e: f32, ts_s: f32, m: f32) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::beam::{Beam, BeamParams};
     use crate::modal::ModalModel;
@@ -566,19 +565,18 @@ mod tests {
         assert_eq!(Law::from(StrainSmcGains::START).values()[i], 0.1);
     }
 
-    pub(super) fn model() -> ModalModel<3> {
+    pub(crate) fn model() -> ModalModel<3> {
         ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
     }
 
     /// Built for one law (the board: `cargo test -p model-core --features drive-law-only
-    /// --lib one_law`, which CI runs), the compiled table's `[drive]` law builds and every
-    /// other is refused by name.
+    /// --lib one_law`, which CI runs), the table's `[drive]` law builds and every other is
+    /// refused by name.
     #[cfg(feature = "drive-law-only")]
     #[test]
     fn a_drive_built_for_one_law_refuses_the_others() {
         let point = PlantPoint::of(&model());
-        let only = crate::gains::DRIVE.law;
-        assert_eq!(ONLY_LAW, Some(only));
+        let only = ONLY_LAW.expect("the feature names one law");
         for &kind in LawKind::ALL {
             let built = ControlLaw::try_build(Law::start(kind), point);
             if kind == only {

@@ -6,8 +6,10 @@
 //! the hot path, and the per-tick [`controller::Controller::step`] never fails and never panics:
 //!
 //! - [`beam`], [`modal`], [`linalg`], [`plant`]: the beam's parameters, its assumed-modes
-//!   model and the plant the drive is built for, from the `beam-model` crate (re-exported);
-//!   [`gains::PLANT`] is the plant compiled in with the gain table.
+//!   model and the plant the drive is built for, from the `beam-model` crate (re-exported).
+//! - [`table`]: the drive's configuration as one value, [`DriveTable`] (plant, instruments,
+//!   law, gains, shapers, observer designs), and gain scheduling over the payload. Passed in
+//!   by whoever builds the drive; nothing here reads a table from a file or a global.
 //! - [`spline`]: the rest-to-rest reference (quintic and multi-knot C2); [`knots`]: the
 //!   knot capacity of each kind of move.
 //! - [`shaper`]: ZV, ZVD and EI input shapers, and shaped moves as splines.
@@ -21,25 +23,26 @@
 //!
 //! # Example
 //!
-//! Build the aluminium beam's 3-mode model, the paper's SMC with the compiled table's gains,
-//! and a controller for the paper's slew; then run ticks as the drive does, raw readings in
-//! and torque out:
+//! Build the aluminium beam's 3-mode model, the paper's SMC with gains of your own, and a
+//! controller for the paper's slew reading the reference drive's instruments; then run ticks
+//! as the drive does, raw readings in and torque out:
 //!
 //! ```
-//! use model_core::gains::{schedule, GAIN_TABLE};
+//! use model_core::table::Instruments;
 //! use model_core::{
-//!     Beam, BeamParams, ControlLaw, Controller, ControllerSettings, LawKind, ModalModel, Mode,
-//!     RawMeasurement, Spline,
+//!     Beam, BeamParams, ControlLaw, Controller, ControllerSettings, Mode, ModalModel,
+//!     PlantPoint, RawMeasurement, SmcGains, Spline, Switching,
 //! };
 //! use core::f32::consts::FRAC_PI_2;
 //!
 //! let beam = Beam::try_build(BeamParams::aluminium())?;
 //! let model = ModalModel::<3>::try_build(&beam)?;
-//! let gains = schedule(GAIN_TABLE, LawKind::Smc, 0.0).expect("the table has smc rows");
-//! let law = ControlLaw::try_build(gains, &model)?;
+//! let gains = SmcGains { w: 80.0, a: 10.0, beta: 1.2, switching: Switching::Tanh };
+//! let law = ControlLaw::try_build(gains.law(), PlantPoint::of(&model))?;
 //! let slew = Spline::<2>::quintic(-FRAC_PI_2, FRAC_PI_2, 0.35)?;
-//! // By default the encoder counter reads 0 at -90 deg, where the slew starts.
-//! let mut controller = Controller::try_build(ControllerSettings::default(), law, slew)?;
+//! // The encoder counter reads 0 at -90 deg, where the slew starts.
+//! let settings = ControllerSettings::new(Instruments::DEFAULT);
+//! let mut controller = Controller::try_build(settings, law, slew)?;
 //!
 //! // Idle: torque off while the strain offset is measured.
 //! let at_rest = RawMeasurement::default();
@@ -63,13 +66,13 @@ pub use beam_model::{beam, linalg, lqg, modal, plant};
 pub mod commands;
 pub mod controller;
 pub mod error;
-pub mod gains;
 pub mod knots;
 pub mod law;
 pub mod measure;
 pub mod planner;
 pub mod shaper;
 pub mod spline;
+pub mod table;
 
 /// The control loop's rate, Hz: the paper's testbed and the drive's TIM2 tick.
 pub const LOOP_HZ: u32 = 1_000;
@@ -96,3 +99,4 @@ pub use planner::{plan_move, plan_through, Limits, PlanError, PlannedMove, Waypo
 pub use plant::{Plant, PlantPoint};
 pub use shaper::{Shaper, ShaperError, ShaperKind, Timing};
 pub use spline::{RefPoint, Spline, SplineError};
+pub use table::{DriveConfig, DriveTable, GainRow, Instruments};

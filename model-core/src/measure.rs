@@ -95,6 +95,39 @@ pub struct CounterWidth {
     pub shift: u32,
 }
 
+/// How a drive reads its hub and its beam: the encoder and the root strain converter. The
+/// loop decodes with them, the simulated sensors quantise with them, and the observer laws
+/// are designed on their noise (`Instruments::noise`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Instruments {
+    /// The hub encoder.
+    pub encoder: EncoderSpec,
+    /// The root strain converter.
+    pub adc: AdcSpec,
+}
+
+impl Instruments {
+    /// A 16 384-count encoder on a 16-bit counter and a 24-bit bridge converter spanning
+    /// +-5000 ue ([`EncoderSpec::DEFAULT`], [`AdcSpec::DEFAULT`]): the reference drive's,
+    /// which a gain table's `[drive]` starts from.
+    pub const DEFAULT: Instruments = Instruments {
+        encoder: EncoderSpec::DEFAULT,
+        adc: AdcSpec::DEFAULT,
+    };
+
+    /// The noise an observer assumes on these instruments: the encoder's quantisation (step /
+    /// sqrt(12)) and the root gauge's, at least [`ASSUMED_STRAIN_NOISE`] (a bridge
+    /// amplifier's floor, above a fine converter's quantisation).
+    pub fn noise(&self) -> beam_model::lqg::SensorNoise {
+        let quantum = |step: f64| step / libm::sqrt(12.0);
+        beam_model::lqg::SensorNoise {
+            theta_rad: quantum(self.encoder.rad_per_count()),
+            strain: quantum(self.adc.strain_per_code()).max(crate::law::ASSUMED_STRAIN_NOISE),
+        }
+    }
+}
+
 /// A bipolar strain-gauge ADC: signed codes, full scale in strain.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

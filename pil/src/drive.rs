@@ -1,19 +1,19 @@
 //! The PIL drive itself, shared by the two PIL binaries (`pil`, and `pil-observer` with the
 //! observer laws): see `main.rs`.
 
+use beam_drive::ads1220::Ads1220;
+use beam_drive::amplifier::Amplifier;
+use beam_drive::config::{
+    build_commanded, build_controller_for, nearest, sequence_for, MOVE_KNOTS, SLEW_FROM_RAD,
+};
+use beam_drive::drive::{Command, Drive};
+use beam_drive::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm};
 use beam_wire::{
     decode, encode, CommandFrame, DriveError, DriveMessage, FrameReader, HostMessage, LawKind,
     SensorFrame, MAX_FRAME,
 };
 use core::cell::UnsafeCell;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
-use firmware::ads1220::Ads1220;
-use firmware::amplifier::Amplifier;
-use firmware::config::{
-    build_commanded, build_controller_for, nearest, sequence_for, MOVE_KNOTS, SLEW_FROM_RAD,
-};
-use firmware::drive::{Command, Drive};
-use firmware::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm};
 use semihosting::io::{Read, Write};
 // The PAC's interrupt vector table, which cortex-m-rt's `device` feature expects.
 use stm32f4xx_hal as _;
@@ -90,13 +90,7 @@ fn bench_drive(
         MOVE_KNOTS,
         Counter<'_>,
         Ads1220<Bus<'_>, DataReady<'_>>,
-        Amplifier<
-            Pwm<'_>,
-            Direction<'_>,
-            Enable<'_>,
-            Line<'_>,
-            { firmware::config::TORQUE_REVERSED },
-        >,
+        Amplifier<Pwm<'_>, Direction<'_>, Enable<'_>, Line<'_>, { firmware::TORQUE_REVERSED }>,
     >,
     DriveError,
 > {
@@ -105,7 +99,7 @@ fn bench_drive(
         Direction(bench),
         Enable(bench),
         Line(bench),
-        firmware::config::TORQUE_SCALE,
+        firmware::TORQUE_SCALE,
     )
     .map_err(|_| DriveError::Config)?;
     Ok(Drive::new(
@@ -137,9 +131,9 @@ fn tick_and_send<const K: usize, Q, S, A>(
     seq: u32,
 ) -> Result<f32, DriveError>
 where
-    Q: firmware::drive::QuadratureCounter,
-    S: firmware::drive::StrainSensor,
-    A: firmware::drive::Actuator,
+    Q: beam_drive::drive::QuadratureCounter,
+    S: beam_drive::drive::StrainSensor,
+    A: beam_drive::drive::Actuator,
 {
     insn_mark_start();
     let t = drive.tick();
@@ -158,8 +152,10 @@ where
 
 /// The compiled-in move sequence, started by the START flag of the sensor frames.
 fn run_sequence(link: &mut Link, kind: LawKind, payload_kg: f32) -> Result<(), DriveError> {
-    let controller = build_controller_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
-    let moves = sequence_for(kind, payload_kg).map_err(|_| DriveError::Config)?;
+    let controller = build_controller_for(&firmware::ALL_LAWS, kind, payload_kg)
+        .map_err(|_| DriveError::Config)?;
+    let moves =
+        sequence_for(&firmware::ALL_LAWS, kind, payload_kg).map_err(|_| DriveError::Config)?;
     let bench = Bench::new();
     let mut drive = bench_drive(controller, &bench)?;
     link.send(&DriveMessage::Ready)?;
@@ -194,7 +190,8 @@ fn run_commanded(
     home_rad: f32,
 ) -> Result<(), DriveError> {
     let (controller, mut commander) =
-        build_commanded(kind, payload_kg, home_rad).map_err(|_| DriveError::Config)?;
+        build_commanded(&firmware::ALL_LAWS, kind, payload_kg, home_rad)
+            .map_err(|_| DriveError::Config)?;
     let bench = Bench::new();
     let mut drive = bench_drive(controller, &bench)?;
     link.send(&DriveMessage::Ready)?;

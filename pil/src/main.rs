@@ -4,7 +4,7 @@
 //! Runs on QEMU's `netduinoplus2` (an emulated STM32F405). Each tick the host writes one
 //! [`SensorFrame`](beam_wire::SensorFrame) to semihosting stdin; the drive hands its
 //! encoder count, strain code and fault line to the same generic drivers the board uses, over
-//! the fake bus and pins of `firmware::fakes` (the ADS1220 driver clocks the code out of a
+//! the fake bus and pins of `beam_drive::fakes` (the ADS1220 driver clocks the code out of a
 //! stand-in SPI bus with DRDY always ready), runs
 //! `Drive::tick`, and writes one [`CommandFrame`](beam_wire::CommandFrame) back on
 //! stdout. The tick is bracketed by `insn_mark_start` / `insn_mark_end` for the

@@ -2,4 +2,3 @@
 
 pub mod optimize;
 pub mod sweep;
-pub mod table;

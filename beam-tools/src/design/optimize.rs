@@ -183,6 +183,9 @@ pub const SHAPER_DAMPING: &str = "shaper_damping";
 pub struct Spec {
     /// The controller.
     pub kind: LawKind,
+    /// The drive's instruments: the simulated sensors, and what an observer law is designed
+    /// on (the rig's, from its gain table's `[drive]`).
+    pub instruments: model_core::Instruments,
     /// Searched gains and bounds.
     pub params: Vec<Param>,
     /// Switching function (SMC).
@@ -452,7 +455,7 @@ fn run_case<const N: usize>(
         fault: spec.load_hold.map(|h| h.injection()),
         sensors: host_tests::sensors::SensorConfig {
             seed: spec.seed,
-            ..Default::default()
+            ..host_tests::sensors::SensorConfig::reading(spec.instruments)
         },
         ..SimOptions::default()
     };
@@ -776,6 +779,7 @@ pub fn optimize<const N: usize>(
 pub fn full_metrics<const N: usize>(
     model: &ModalModel<N>,
     law: Law,
+    instruments: model_core::Instruments,
     seed: u64,
     motion: Motion,
     load: Option<LoadHold>,
@@ -783,7 +787,7 @@ pub fn full_metrics<const N: usize>(
     let opts = SimOptions {
         sensors: host_tests::sensors::SensorConfig {
             seed,
-            ..Default::default()
+            ..host_tests::sensors::SensorConfig::reading(instruments)
         },
         motion,
         duration_s: FULL_RUN_S,

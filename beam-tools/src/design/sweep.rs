@@ -7,6 +7,7 @@
 use host_tests::metrics::{metrics_with, Metrics, SettleSpec};
 use host_tests::sensors::SensorConfig;
 use host_tests::sim::{simulate_mismatched, Motion, SimError, SimOptions, SimResult};
+use model_core::Instruments;
 use model_core::{Beam, BeamParams, Law, ModalModel, Shaper, Timing};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
@@ -42,6 +43,9 @@ pub struct SweepSpec {
     pub duration_s: f64,
     /// What counts as settled.
     pub settle: SettleSpec,
+    /// The drive's instruments, which the simulated sensors are and the observer laws are
+    /// designed on (a gain table's `[drive]`).
+    pub instruments: Instruments,
 }
 
 /// The simulated time a sweep runs by default, s: settle times of several seconds are common
@@ -212,7 +216,7 @@ impl<const N: usize> CaseBeams<N> {
         let opts = SimOptions {
             sensors: SensorConfig {
                 seed: spec.seed ^ self.index as u64,
-                ..Default::default()
+                ..SensorConfig::reading(spec.instruments)
             },
             motion: self.perturbation.motion(shaper),
             duration_s: spec.duration_s,
@@ -386,6 +390,7 @@ mod tests {
             move_time_s: None,
             duration_s: DEFAULT_DURATION_S,
             settle: SettleSpec::default(),
+            instruments: Instruments::DEFAULT,
         };
         let with_more = SweepSpec {
             coulomb_max_nm: 0.05,

@@ -3,3 +3,4 @@
 pub mod files;
 pub mod params_file;
 pub mod plot;
+pub mod table_file;

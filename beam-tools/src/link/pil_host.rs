@@ -5,22 +5,22 @@
 //! semihosting stdin and reads one command frame from its stdout (`beam_wire` defines both,
 //! and both ends run the same encoder and decoder). QEMU runs under `timeout`, so a drive that
 //! hangs ends the run instead of the test. After the run the same sensor stream is replayed
-//! through the host's build of the very same controller (`firmware::config`) and the torques
+//! through the host's build of the very same controller (`beam_drive::config`) and the torques
 //! compared bit for bit; the instruction-count plugin's log gives the cost of each tick, and
 //! the drive's defmt telemetry (on semihosting stderr) is decoded with the ELF.
 
 use crate::link::telemetry::{self, mode_of, Decoded};
+use beam_drive::config::{build_commanded, build_controller_for, sequence_for, BuildError};
 use beam_wire::command::{Reply, Request};
 use beam_wire::{
     decode, encode, CommandFrame, DriveError, DriveMessage, FrameError, FrameReader, HostMessage,
     SensorFrame, MAX_FRAME,
 };
-use firmware::config::{build_controller_for, sequence_for};
 use host_tests::commanded::{run_script, CommandedDrive, CommandedRun, HostDrive, Step};
 use host_tests::plant::Plant;
 use host_tests::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
-use model_core::LawKind;
 use model_core::{ControllerSettings, FaultFlags, RawMeasurement, TorqueCommand};
+use model_core::{DriveTable, LawKind};
 use std::io::{BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
@@ -57,6 +57,9 @@ pub struct PilConfig {
     pub controller: LawKind,
     /// Payload, kg (gain schedule and the drive's model).
     pub payload_kg: f32,
+    /// The gain table the PIL firmware was built from (its `BEAM_GAIN_TABLE`), loaded here:
+    /// the host builds the same drive from it to compare against.
+    pub table: &'static DriveTable<'static>,
 }
 
 /// Instructions per tick, from the plugin.
@@ -487,7 +490,7 @@ pub enum PilError {
         /// The law.
         kind: LawKind,
         /// Why.
-        reason: firmware::config::BuildError,
+        reason: BuildError,
     },
     /// A command reply came where a tick's command frame was due.
     #[error("a command reply ({0:?}) where a tick's frame was due")]
@@ -577,8 +580,7 @@ pub fn run_pil_commands<const N: usize>(
         reason,
     };
     let (controller, commander) =
-        firmware::config::build_commanded(cfg.controller, cfg.payload_kg, home_rad)
-            .map_err(config)?;
+        build_commanded(cfg.table, cfg.controller, cfg.payload_kg, home_rad).map_err(config)?;
     let mut host = HostDrive {
         commander,
         controller,
@@ -628,8 +630,10 @@ pub fn run_pil<const N: usize>(
         kind: cfg.controller,
         reason,
     };
-    let mut host = build_controller_for(cfg.controller, cfg.payload_kg).map_err(config)?;
-    let reference = sequence_for(cfg.controller, cfg.payload_kg).map_err(config)?[0].clone();
+    let mut host =
+        build_controller_for(cfg.table, cfg.controller, cfg.payload_kg).map_err(config)?;
+    let reference =
+        sequence_for(cfg.table, cfg.controller, cfg.payload_kg).map_err(config)?[0].clone();
     let elf = std::fs::read(&cfg.elf).map_err(|source| PilError::ReadFirmware {
         path: cfg.elf.clone(),
         source,

@@ -2,7 +2,7 @@
 //!
 //! Both firmware binaries log every tick as one defmt message in a fixed format,
 //! `tlm {tick} {encoder_raw} {strain_code} {torque_nm} {theta_rad} {theta_ref_rad} {strain}
-//! {mode} {faults}` (`firmware::drive::Telemetry::log`). This module decodes a raw defmt
+//! {mode} {faults}` (`beam_drive::drive::Telemetry::log`). This module decodes a raw defmt
 //! stream with the `defmt-decoder` crate and the firmware ELF's format table (the bytes
 //! `beam pil` collects from the emulated drive, or a raw RTT capture from the board), and also
 //! accepts text that has already been decoded (`probe-rs run` or `defmt-print` output, one
@@ -70,7 +70,7 @@ pub enum TelemetryError {
 }
 
 /// One tick as the drive logged it: the firmware's own telemetry record.
-pub type Row = firmware::drive::Telemetry;
+pub type Row = beam_drive::drive::Telemetry;
 
 /// The controller mode of a logged or framed mode number (0 idle, 1 slewing, 2 holding,
 /// 3 fault), as the firmware writes `mode as u8`.

@@ -12,7 +12,7 @@ fn controller(law: Law) -> Controller<4> {
     let law = ControlLaw::try_build(law, &m).unwrap();
     let half_pi = core::f32::consts::FRAC_PI_2;
     Controller::try_build(
-        ControllerSettings::default(),
+        ControllerSettings::new(crate::table::Instruments::DEFAULT),
         law,
         Spline::quintic(-half_pi, half_pi, 0.35).unwrap(),
     )
@@ -247,21 +247,21 @@ fn bad_settings_are_named() {
     assert_eq!(
         named(build(ControllerSettings {
             ts_s: 0.0,
-            ..Default::default()
+            ..ControllerSettings::new(crate::table::Instruments::DEFAULT)
         })),
         "ts_s"
     );
     assert_eq!(
         named(build(ControllerSettings {
             max_strain: f32::NAN,
-            ..Default::default()
+            ..ControllerSettings::new(crate::table::Instruments::DEFAULT)
         })),
         "max_strain"
     );
     assert_eq!(
         named(build(ControllerSettings {
             max_speed_rad_s: 1e6,
-            ..Default::default()
+            ..ControllerSettings::new(crate::table::Instruments::DEFAULT)
         })),
         "max_speed_rad_s"
     );
@@ -314,7 +314,7 @@ proptest! {
 
 #[test]
 fn a_hub_leaving_the_range_under_torque_latches_out_of_range_but_not_while_idle() {
-    let s = ControllerSettings::default();
+    let s = ControllerSettings::new(crate::table::Instruments::DEFAULT);
     let raw_at = |theta: f32| {
         let count = ((theta - s.theta_home_rad) / s.encoder.rad_per_count() as f32).round();
         RawMeasurement {

@@ -21,6 +21,11 @@ use std::path::PathBuf;
 pub struct DriveArgs {
     #[command(flatten)]
     settle: SettleArgs,
+    /// With --sim or --pil: the gain table the simulated drive is built from (for --pil, the
+    /// one the PIL firmware was built from) [default: $BEAM_GAIN_TABLE, else the
+    /// repository's gains.toml].
+    #[arg(long, value_name = "FILE", conflicts_with = "port")]
+    table: Option<PathBuf>,
     /// Run the commands on the PIL firmware under QEMU, against the simulated beam (and
     /// on the host's build, to compare).
     #[arg(long, conflicts_with_all = ["sim", "port"])]
@@ -215,11 +220,12 @@ fn run_simulated(
     a: &DriveArgs,
     script: &[Step],
 ) -> anyhow::Result<(CommandedRun, Option<PilSummary>)> {
-    // The simulated beam is the plant the drive was built for (the compiled table's), with
-    // the payload on it.
-    let params = model_core::gains::PLANT.params_with(a.payload);
+    // The simulated beam is the plant the drive was built for (the table's), with the
+    // payload on it, read by the drive's instruments.
+    let table = beam_tools::io::table_file::required_table(a.table.as_deref())?;
+    let params = table.plant.params_with(a.payload);
     let home = a.home.to_radians() as f32;
-    let sensors = SensorConfig::default();
+    let sensors = SensorConfig::reading(table.drive.instruments);
     let (run, pil) = if a.pil {
         let plugin = if a.no_insn_count {
             None
@@ -240,6 +246,7 @@ fn run_simulated(
             timeout_s: a.timeout,
             controller: a.controller,
             payload_kg: a.payload as f32,
+            table,
         };
         let out = run_pil_commands::<3>(params, &cfg, home, script, sensors)?;
         let summary = (out.identical, out.max_ulps, out.insns);
@@ -247,9 +254,9 @@ fn run_simulated(
     } else {
         let run = run_commands::<3>(
             params,
+            table,
             a.payload as f32,
             a.controller,
-            firmware::config::designs_for(a.controller),
             home,
             script,
             sensors,
@@ -442,7 +449,7 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
     if let Some(path) = &a.plot {
         beam_tools::io::plot::check_extension(path)?;
     }
-    let mut drive = SerialDrive::open(port, firmware::link::BAUD, timeout)?;
+    let mut drive = SerialDrive::open(port, beam_drive::link::BAUD, timeout)?;
     // A progress line while recording, on a terminal only (scripts and tests see none).
     if a.record.is_some() && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         drive.on_progress(|n| eprint!("\rrecording: {n} records"));

@@ -11,6 +11,7 @@
 //! - `beam telemetry`: a drive's defmt telemetry as the CSV `beam calibrate` reads.
 //! - `beam drive`: a script of commands for a commanded drive (board, PIL firmware or host).
 //! - `beam replay`: a model against a log (hub prescribed, and torque open loop).
+//! - `beam flash`: the board's firmware, as built, through a debug probe.
 //!
 //! `--json` prints one JSON object on stdout. Every error prints one line on stderr and
 //! exits with code 2; `beam drive` exits with code 1 when the drive refused a command (after
@@ -31,20 +32,23 @@ macro_rules! with_modes {
 
 mod calibrate_cmd;
 mod drive_cmd;
+mod flash_cmd;
 mod optimize_cmd;
 mod pil_cmd;
 mod replay_cmd;
 mod sweep_cmd;
 
 use anyhow::{anyhow, bail, Context};
-use beam_tools::io::{files as io, plot};
+use beam_tools::io::{files as io, plot, table_file};
 use clap::{Args, Parser, Subcommand};
 use host_tests::metrics::{metrics_with, SettleSpec};
+use host_tests::sensors::SensorConfig;
 use host_tests::sim::{simulate, SimOptions, SimResult};
 use host_tests::sim::{FaultKind, Injection, Motion, Via};
 use model_core::law::Setting;
 use model_core::{
-    Beam, BeamParams, Law, LawKind, ModalModel, Preset, Shaper, ShaperKind, Switching, Timing,
+    Beam, BeamParams, DriveTable, Law, LawKind, ModalModel, Preset, Shaper, ShaperKind, Switching,
+    Timing,
 };
 
 use serde_json::json;
@@ -86,6 +90,9 @@ enum Command {
     /// A model against a log: the beam driven by the logged hub angle, the hub by the logged
     /// torque; RMS errors and the vibration frequency in both.
     Replay(replay_cmd::ReplayArgs),
+    /// Flash the board's firmware as `cargo fw` last built it, through a debug probe
+    /// (probe-rs), and run it with its telemetry printed. It never rebuilds.
+    Flash(flash_cmd::FlashArgs),
 }
 
 /// One of beam-kinds' named enums, for clap: its names are the possible values, with help.
@@ -213,6 +220,11 @@ struct ModelArgs {
 struct SimulateArgs {
     #[command(flatten)]
     plant: PlantArgs,
+    /// The gain table the gains, the shaper and the drive's instruments come from [default:
+    /// $BEAM_GAIN_TABLE, else the repository's gains.toml; without one, each law's
+    /// starting gains, no shaper and the reference instruments].
+    #[arg(long, value_name = "FILE")]
+    table: Option<PathBuf>,
     /// Control law.
     #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
     controller: LawKind,
@@ -628,6 +640,7 @@ fn main() -> ExitCode {
         Command::Telemetry(a) => pil_cmd::telemetry(&a),
         Command::Drive(a) => drive_cmd::run(&a),
         Command::Replay(a) => replay_cmd::run(&a),
+        Command::Flash(a) => flash_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -709,13 +722,13 @@ fn print_model<const N: usize>(beam: &Beam, a: &ModelArgs) -> anyhow::Result<()>
     Ok(())
 }
 
-fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
+fn law(a: &SimulateArgs, table: Option<&DriveTable>) -> anyhow::Result<Law> {
     let kind = a.controller;
     let reject = |flag: &str| anyhow!("--{flag} does not apply to --controller {kind}");
-    // Gains not given on the command line come from the compiled gain table (at the
-    // configured payload), or the law's starting gains if it has no row for this law. Each
-    // flag is the gain of that name in the law's specs.
-    let base = default_law(kind, a.plant.tip_mass);
+    // Gains not given on the command line come from the gain table (at the configured
+    // payload), or the law's starting gains if there is none or it has no row for this law.
+    // Each flag is the gain of that name in the law's specs.
+    let base = default_law(table, kind, a.plant.tip_mass);
     let mut values = base.values();
     let named = [
         ("kp", a.kp),
@@ -753,31 +766,31 @@ fn law(a: &SimulateArgs) -> anyhow::Result<Law> {
     Ok(Law::from_values(kind, values, settings))
 }
 
-/// The law `kind` at the payload (0 kg if none given) from the compiled table, or with the
-/// hand-picked gains if the table has no row for it.
-fn default_law(kind: LawKind, payload_kg: Option<f64>) -> Law {
-    model_core::gains::schedule(
-        model_core::gains::GAIN_TABLE,
-        kind,
-        payload_kg.unwrap_or(0.0) as f32,
-    )
-    .unwrap_or(Law::start(kind))
+/// The law `kind` at the payload (0 kg if none given) from `table`, or with the law's
+/// starting gains without a table or a row for it.
+fn default_law(table: Option<&DriveTable>, kind: LawKind, payload_kg: Option<f64>) -> Law {
+    table
+        .and_then(|t| t.law(kind, payload_kg.unwrap_or(0.0) as f32))
+        .unwrap_or(Law::start(kind))
 }
 
 fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
     let beam = beam(&a.plant)?;
-    let law = law(a)?;
+    let table = table_file::table_or_default(a.table.as_deref())?;
+    let law = law(a, table)?;
+    let payload_kg = a.plant.tip_mass.unwrap_or(0.0) as f32;
+    let shaper = table.map_or(Shaper::NONE, |t| t.shaper(a.controller, payload_kg));
+    let run_opts = a.run.options()?;
     let opts = SimOptions {
-        motion: a.motion.motion(
-            None,
-            model_core::gains::schedule_shaper(
-                model_core::gains::GAIN_TABLE,
-                a.controller,
-                a.plant.tip_mass.unwrap_or(0.0) as f32,
-            ),
-        )?,
+        motion: a.motion.motion(None, shaper)?,
         fault: a.load.injection()?,
-        ..a.run.options()?
+        // The drive's instruments: the table's (an observer law is designed on them).
+        sensors: SensorConfig {
+            encoder: table.map_or(run_opts.sensors.encoder, |t| t.drive.instruments.encoder),
+            adc: table.map_or(run_opts.sensors.adc, |t| t.drive.instruments.adc),
+            ..run_opts.sensors
+        },
+        ..run_opts
     };
     let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;
     let preset = &a.plant.preset_label();

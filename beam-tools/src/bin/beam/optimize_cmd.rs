@@ -264,6 +264,7 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
     }
     let scenarios = scenarios(a, beam, &motion)?;
     let spec = Spec {
+        instruments: instruments(a)?,
         kind,
         params,
         switching: a.switching,
@@ -333,10 +334,18 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
     let motion = beam_tools::design::optimize::motion_for(&spec, &outcome.best.gains);
-    let winner = full_metrics(&model, outcome.best.law, a.seed, motion, spec.load_hold)?;
+    let winner = full_metrics(
+        &model,
+        outcome.best.law,
+        spec.instruments,
+        a.seed,
+        motion,
+        spec.load_hold,
+    )?;
     let baseline = full_metrics(
         &model,
         Law::Pd(PdGains::BASELINE),
+        spec.instruments,
         a.seed,
         host_tests::sim::Motion::default(),
         spec.load_hold,
@@ -393,6 +402,7 @@ fn scenarios(
         move_time_s: None,
         duration_s: beam_tools::design::sweep::DEFAULT_DURATION_S,
         settle: Default::default(),
+        instruments: instruments(a)?,
     };
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
     use rand::Rng;
@@ -445,6 +455,16 @@ fn parse_start(text: &str, spec: &Spec) -> anyhow::Result<Vec<f64>> {
             Some(extra) => bail!("--start: `{extra}` is not searched for {}", spec.kind),
             None => Ok(v),
         })
+}
+
+/// The drive's instruments the design is for: the `[drive]` of the `--table` being written
+/// into, if it exists (a rig's encoder and gauge), else a new table's (the reference
+/// drive's, which that table will then carry).
+fn instruments(a: &OptimizeArgs) -> anyhow::Result<model_core::Instruments> {
+    match a.table.as_deref().filter(|p| p.exists()) {
+        Some(path) => Ok(gain_table::load(path)?.drive.instruments()),
+        None => Ok(gain_table::DriveSpec::default().instruments()),
+    }
 }
 
 /// The gains of the table row of this controller with the nearest payload, if any, in the

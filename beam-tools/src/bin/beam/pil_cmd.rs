@@ -9,7 +9,6 @@ use beam_tools::link::pil_host::{
 };
 use beam_tools::link::telemetry::{self, Decoded};
 use clap::Args;
-use firmware::config::compiled_law;
 use host_tests::plant::Plant;
 use host_tests::sim::SimOptions;
 use model_core::{Beam, LawKind, ModalModel};
@@ -22,7 +21,12 @@ pub struct PilArgs {
     /// goes to both).
     #[command(flatten)]
     plant: PlantArgs,
-    /// Control law the drive runs (gains from the compiled table; PD baseline gains).
+    /// The gain table the PIL firmware was built from, which the host builds the same drive
+    /// from to compare [default: $BEAM_GAIN_TABLE, as `cargo pil-fw` reads it, else
+    /// the repository's gains.toml].
+    #[arg(long, value_name = "FILE")]
+    table: Option<PathBuf>,
+    /// Control law the drive runs (gains from the gain table; PD baseline gains).
     #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
     controller: LawKind,
     #[command(flatten)]
@@ -82,8 +86,11 @@ pub fn run(a: &PilArgs) -> anyhow::Result<()> {
         timeout_s: a.timeout,
         controller: a.controller,
         payload_kg,
+        table: beam_tools::io::table_file::required_table(a.table.as_deref())?,
     };
-    let law = compiled_law(cfg.controller, payload_kg)
+    let law = cfg
+        .table
+        .law(cfg.controller, payload_kg)
         .with_context(|| format!("the gain table has no `{}` rows", cfg.controller))?;
     let out = with_modes!(a.plant.modes, pil_n(&beam, &cfg, &opts))?;
     if let Some(path) = &a.insn_profile {

@@ -23,7 +23,7 @@ pub struct SweepArgs {
     /// counts as never settled.
     #[arg(long, default_value_t = beam_tools::design::sweep::DEFAULT_DURATION_S)]
     duration: f64,
-    /// Controller (gains from the compiled table at each case's payload).
+    /// Controller (gains from the gain table at each case's payload).
     #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
     controller: LawKind,
     /// Number of cases.
@@ -63,8 +63,9 @@ pub struct SweepArgs {
         conflicts_with = "shortest"
     )]
     move_time: Option<f64>,
-    /// Gains and shapers from this table (as `beam optimize --table` writes it) instead of
-    /// the compiled one, for the controller and the peer.
+    /// Gains, shapers and instruments from this table (as `beam optimize --table` writes
+    /// it), for the controller and the peer [default: $BEAM_GAIN_TABLE, else the
+    /// repository's gains.toml].
     #[arg(long, value_name = "FILE")]
     table: Option<PathBuf>,
     /// Do not run the pd-ff peer (feedforward + PD with its table shaper) on each case.
@@ -92,13 +93,15 @@ pub struct SweepArgs {
 pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     check(a)?;
     let nominal = *beam(&a.plant)?.params();
-    let loaded = load_table(a)?;
-    let table = loaded.as_deref().unwrap_or(model_core::gains::GAIN_TABLE);
+    let table = load_table(a)?;
     let tuned = |k: LawKind| {
         move |payload: f64| {
             let p = payload as f32;
-            let law = model_core::gains::schedule(table, k, p).unwrap_or(model_core::Law::start(k));
-            (law, model_core::gains::schedule_shaper(table, k, p))
+            let law = table
+                .and_then(|t| t.law(k, p))
+                .unwrap_or(model_core::Law::start(k));
+            let shaper = table.map_or(model_core::Shaper::NONE, |t| t.shaper(k, p));
+            (law, shaper)
         }
     };
     let law_at = tuned(a.controller);
@@ -117,6 +120,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         move_time_s: a.move_time,
         duration_s: a.duration,
         settle: a.settle.spec()?,
+        instruments: table.map_or(model_core::Instruments::DEFAULT, |t| t.drive.instruments),
     };
     if let Some(index) = a.case {
         return run_case(a, &nominal, &spec, &law_at, index);
@@ -249,16 +253,16 @@ fn check(a: &SweepArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The `--table` file's rows, if one is given; it must have rows of the controller.
-fn load_table(a: &SweepArgs) -> anyhow::Result<Option<Vec<model_core::gains::GainRow>>> {
-    let Some(path) = &a.table else {
-        return Ok(None);
-    };
-    let rows = beam_tools::design::table::gain_rows(&gain_table::load(path)?.rows);
-    if !rows.iter().any(|r| r.law.kind() == a.controller) {
-        bail!("{} has no {} row", path.display(), a.controller);
+/// The gain table (`--table`, or the default one); a table given must have rows of the
+/// controller.
+fn load_table(a: &SweepArgs) -> anyhow::Result<Option<&'static model_core::DriveTable<'static>>> {
+    let table = beam_tools::io::table_file::table_or_default(a.table.as_deref())?;
+    if let (Some(path), Some(t)) = (&a.table, table) {
+        if !t.rows.iter().any(|r| r.law.kind() == a.controller) {
+            bail!("{} has no {} row", path.display(), a.controller);
+        }
     }
-    Ok(Some(rows))
+    Ok(table)
 }
 
 /// `--csv` (a row per case) and `--plot` (histograms against the baseline).
