@@ -12,7 +12,7 @@
 //! - [`io`]: parameter files ([`io::params_file`]), plots ([`io::plot`]) and output files
 //!   written whole ([`io::files`]).
 //!
-//! They all run model-core's controller against the simulated world of `host-tests`.
+//! They all run model-core's controller against the simulated world of `beam-sim`.
 #![forbid(unsafe_code)]
 
 pub mod design;

@@ -4,9 +4,9 @@
 //! identified model must recover the rigid-body inertia within 5 % and the first hub-free
 //! frequency within 2 %.
 
+use beam_sim::sim::{simulate, SimOptions};
 use beam_tools::identify::calibrate::{calibrate, find_windows, read_log, read_log_with, Columns};
 use beam_tools::io::files::write_trace_csv;
-use host_tests::sim::{simulate, SimOptions};
 use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
 
 fn model(p: BeamParams) -> ModalModel<3> {
@@ -255,7 +255,7 @@ fn the_torque_replay_stays_stable_at_500_hz_with_the_hub_at_rest_under_coulomb_f
         coulomb_nm: 0.06,
         ..BeamParams::aluminium()
     };
-    let plant = host_tests::plant::Plant::new(model(truth));
+    let plant = beam_sim::plant::Plant::new(model(truth));
     assert!(
         plant.stable_step_s() < 0.5e-3 / 2.78 * 2.0,
         "{}",
@@ -340,7 +340,7 @@ fn other_rig_log(
         Law::Pd(PdGains::BASELINE),
         &SimOptions {
             duration_s: 2.5,
-            motion: host_tests::sim::Motion {
+            motion: beam_sim::sim::Motion {
                 from_rad: (-deg / 2.0).to_radians() as f32,
                 to_rad: (deg / 2.0).to_radians() as f32,
                 time_s,

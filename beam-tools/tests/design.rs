@@ -3,9 +3,9 @@
 
 mod common;
 
+use beam_sim::metrics::{metrics, CostSpec};
+use beam_sim::sim::{simulate, SimOptions, HAND_PICKED_SMC};
 use beam_tools::design::optimize::{default_params, evaluate, optimize, Spec};
-use host_tests::metrics::{metrics, CostSpec};
-use host_tests::sim::{simulate, SimOptions, HAND_PICKED_SMC};
 use model_core::{Beam, BeamParams, Law, LawKind, ModalModel, PdGains, Switching};
 
 fn model(payload_kg: f64) -> ModalModel<3> {
@@ -35,7 +35,7 @@ fn spec(m: &ModalModel<3>, seed: u64) -> Spec {
         warm_start: None,
         objective: beam_tools::design::optimize::Objective::Cost,
         load_hold: None,
-        motion: host_tests::sim::Motion::default(),
+        motion: beam_sim::sim::Motion::default(),
         scenarios: vec![],
         quantile: 0.95,
     }
@@ -98,7 +98,7 @@ fn every_shipped_row_settles_its_payload_without_breakdown() {
         let m = model(row.payload_kg as f64);
         // Each row runs with the shaper it was designed with (none for smc and smc-strain).
         let opts = SimOptions {
-            motion: host_tests::sim::Motion {
+            motion: beam_sim::sim::Motion {
                 shaper: row.shaper,
                 ..Default::default()
             },
@@ -148,7 +148,7 @@ fn every_row_and_every_payload_between_rows_is_quiet_after_ten_seconds() {
         let shaper = common::shipped().shaper(kind, payload);
         let opts = SimOptions {
             duration_s: 10.0,
-            motion: host_tests::sim::Motion {
+            motion: beam_sim::sim::Motion {
                 shaper,
                 ..Default::default()
             },
@@ -157,11 +157,11 @@ fn every_row_and_every_payload_between_rows_is_quiet_after_ten_seconds() {
         let run = simulate(&model(payload as f64), law, &opts).unwrap();
         assert!(run.breakdown.is_none(), "{kind} at {payload} kg");
         let tail: Vec<_> = run.samples.iter().filter(|s| s.t >= 9.5).collect();
-        let rms = |f: &dyn Fn(&&host_tests::sim::Sample) -> f64| {
+        let rms = |f: &dyn Fn(&&beam_sim::sim::Sample) -> f64| {
             (tail.iter().map(|s| f(s).powi(2)).sum::<f64>() / tail.len() as f64).sqrt()
         };
         let (strain, torque) = (rms(&|s| s.root_strain * 1e6), rms(&|s| s.torque));
-        let settle = host_tests::metrics::metrics(&run).settle_s;
+        let settle = beam_sim::metrics::metrics(&run).settle_s;
         eprintln!("{kind} at {payload} kg: {strain:.2} ue, {torque:.3} N m RMS at 9.5-10 s; settled {settle:?}");
         if strain > 5.0 || torque > 0.5 {
             failed.push(format!(
@@ -174,13 +174,13 @@ fn every_row_and_every_payload_between_rows_is_quiet_after_ten_seconds() {
 
 #[test]
 fn the_settle_objective_scores_the_settle_time_and_does_not_lose_its_start() {
+    use beam_sim::metrics::{metrics_with, SettleSpec};
     use beam_tools::design::optimize::{Objective, SETTLE_RUN_S};
-    use host_tests::metrics::{metrics_with, SettleSpec};
     let m = model(0.0);
-    let start = host_tests::sim::HAND_PICKED_LQG;
+    let start = beam_sim::sim::HAND_PICKED_LQG;
     let x0 = [start.kp, start.kd, start.ki, start.kq, start.sigma].map(|v| v as f64);
     // The paper's slew with the shipped lqg row's shaper (unshaped, the law saturates).
-    let motion = host_tests::sim::Motion {
+    let motion = beam_sim::sim::Motion {
         shaper: common::shipped().shaper(LawKind::Lqg, 0.0),
         ..Default::default()
     };
@@ -206,7 +206,7 @@ fn the_settle_objective_scores_the_settle_time_and_does_not_lose_its_start() {
         &SimOptions {
             duration_s: SETTLE_RUN_S,
             motion,
-            sensors: host_tests::sensors::SensorConfig {
+            sensors: beam_sim::sensors::SensorConfig {
                 seed: s.seed,
                 ..Default::default()
             },

@@ -7,14 +7,14 @@
 
 mod common;
 
+use beam_sim::metrics::metrics;
+use beam_sim::plant::Plant;
+use beam_sim::sim::{run, SimOptions};
 use beam_tools::identify::calibrate::read_log;
 use beam_tools::link::pil_host::{build_plugin, paths, run_pil, InsnProfile, PilConfig, PilDrive};
 use beam_tools::link::telemetry::{first_move, write_csv};
 use beam_wire::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
 use common::shipped;
-use host_tests::metrics::metrics;
-use host_tests::plant::Plant;
-use host_tests::sim::{run, SimOptions};
 use model_core::lqg::LqgDesign;
 use model_core::ControlLaw;
 use model_core::Controller;
@@ -327,7 +327,7 @@ fn injected_faults_get_the_same_reaction_on_the_same_tick_through_the_pil() {
     if !qemu_present() {
         return;
     }
-    use host_tests::sim::{FaultKind, Injection};
+    use beam_sim::sim::{FaultKind, Injection};
     use model_core::FaultFlags;
     for (kind, at_s, expected) in [
         (
@@ -374,9 +374,9 @@ fn a_commanded_session_runs_on_the_firmware_exactly_as_on_the_host() {
     if !qemu_present() {
         return;
     }
+    use beam_sim::commanded::session_script;
     use beam_tools::link::pil_host::run_pil_commands;
     use beam_wire::command::Outcome;
-    use host_tests::commanded::session_script;
     let cfg = config(LawKind::PdFf, true);
     let script = session_script();
     let out = run_pil_commands::<3>(
@@ -384,7 +384,7 @@ fn a_commanded_session_runs_on_the_firmware_exactly_as_on_the_host() {
         &cfg,
         0.0,
         &script,
-        host_tests::sensors::SensorConfig::default(),
+        beam_sim::sensors::SensorConfig::default(),
     )
     .unwrap();
     // Bit for bit: every torque and mode of every tick, and every reply.
@@ -452,8 +452,8 @@ fn the_observer_laws_run_on_the_drive_exactly_as_on_the_host() {
         BeamParams::aluminium(),
         &cfg,
         0.0,
-        &host_tests::commanded::session_script(),
-        host_tests::sensors::SensorConfig::default(),
+        &beam_sim::commanded::session_script(),
+        beam_sim::sensors::SensorConfig::default(),
     )
     .unwrap();
     assert!(out.identical, "max {} ulps", out.max_ulps);

@@ -2,7 +2,7 @@
 //! converter that can stop or fail, an amplifier whose pins record what they were told.
 //!
 //! These check the firmware's glue (what reaches `step`, what reaches the pins), not the
-//! control law, which model-core and host-tests cover.
+//! control law, which model-core and beam-sim cover.
 
 use beam_drive::ads1220::{code_from_bytes, Ads1220};
 use beam_drive::amplifier::{Amplifier, TorqueScale};

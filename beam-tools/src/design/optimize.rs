@@ -12,9 +12,9 @@
 //! is not running the designed law), no validity-guard breakdown, no latched fault, and,
 //! optionally, the hub within a given angle of the target at 0.6 s.
 
-use host_tests::metrics::{cost, metrics, metrics_with, CostSpec, Metrics, SettleSpec};
-use host_tests::sim::Motion;
-use host_tests::sim::{simulate, simulate_mismatched, SimError, SimOptions, SimResult};
+use beam_sim::metrics::{cost, metrics, metrics_with, CostSpec, Metrics, SettleSpec};
+use beam_sim::sim::Motion;
+use beam_sim::sim::{simulate, simulate_mismatched, SimError, SimOptions, SimResult};
 use model_core::{Beam, BeamParams, Law, LawKind, ModalModel, Switching};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;
@@ -123,9 +123,9 @@ impl LoadHold {
     };
 
     /// The run's fault injection for this test.
-    pub fn injection(&self) -> host_tests::sim::Injection {
-        host_tests::sim::Injection {
-            kind: host_tests::sim::FaultKind::LoadTorque {
+    pub fn injection(&self) -> beam_sim::sim::Injection {
+        beam_sim::sim::Injection {
+            kind: beam_sim::sim::FaultKind::LoadTorque {
                 nm: self.nm,
                 for_s: self.until_s - self.at_s,
             },
@@ -453,9 +453,9 @@ fn run_case<const N: usize>(
         duration_s: eval_duration(spec),
         motion,
         fault: spec.load_hold.map(|h| h.injection()),
-        sensors: host_tests::sensors::SensorConfig {
+        sensors: beam_sim::sensors::SensorConfig {
             seed: spec.seed,
-            ..host_tests::sensors::SensorConfig::reading(spec.instruments)
+            ..beam_sim::sensors::SensorConfig::reading(spec.instruments)
         },
         ..SimOptions::default()
     };
@@ -522,7 +522,7 @@ fn score<const N: usize>(
         Some((run.samples[k].theta - run.theta_final).abs().to_degrees())
     };
     // Times are the paper's, kept relative to the move's end for a move that ends later.
-    let dt = run.move_end_s - host_tests::sim::SLEW_TIME_S;
+    let dt = run.move_end_s - beam_sim::sim::SLEW_TIME_S;
     if let Some(max_err) = spec.max_err_deg_0_6 {
         violation = violation.max(err_at(0.6 + dt)? / max_err - 1.0);
     }
@@ -785,9 +785,9 @@ pub fn full_metrics<const N: usize>(
     load: Option<LoadHold>,
 ) -> Result<Metrics, SimError> {
     let opts = SimOptions {
-        sensors: host_tests::sensors::SensorConfig {
+        sensors: beam_sim::sensors::SensorConfig {
             seed,
-            ..host_tests::sensors::SensorConfig::reading(instruments)
+            ..beam_sim::sensors::SensorConfig::reading(instruments)
         },
         motion,
         duration_s: FULL_RUN_S,

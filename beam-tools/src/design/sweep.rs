@@ -4,9 +4,9 @@
 //! compared on the same beams. Cases run in parallel; each has its own seeded generator, so
 //! the result does not depend on the thread count.
 
-use host_tests::metrics::{metrics_with, Metrics, SettleSpec};
-use host_tests::sensors::SensorConfig;
-use host_tests::sim::{simulate_mismatched, Motion, SimError, SimOptions, SimResult};
+use beam_sim::metrics::{metrics_with, Metrics, SettleSpec};
+use beam_sim::sensors::SensorConfig;
+use beam_sim::sim::{simulate_mismatched, Motion, SimError, SimOptions, SimResult};
 use model_core::Instruments;
 use model_core::{Beam, BeamParams, Law, ModalModel, Shaper, Timing};
 use rand::{rngs::StdRng, Rng, SeedableRng};

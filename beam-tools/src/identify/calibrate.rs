@@ -16,7 +16,7 @@ use crate::design::optimize::{latin_hypercube, Param};
 pub use beam_log::{
     lagged, read_log, read_log_with, BeamSensor, Columns, Log, LogError, LogProblem,
 };
-use host_tests::plant::{Plant, State};
+use beam_sim::plant::{Plant, State};
 use model_core::{Beam, BeamParams, EncoderSpec, ModalModel};
 use rayon::prelude::*;
 

@@ -5,7 +5,7 @@
 
 use crate::identify::calibrate::{replay as replay_torque, BeamSensor, Log, Windows};
 use crate::io::params_file::Sensors;
-use host_tests::plant::Plant;
+use beam_sim::plant::Plant;
 use model_core::{Beam, BeamParams, ModalModel};
 use serde::Serialize;
 
@@ -1030,10 +1030,10 @@ mod tests {
         use crate::identify::calibrate::{find_windows, read_log};
         let truth = BeamParams::aluminium();
         let m = ModalModel::<3>::try_build(&model_core::Beam::try_build(truth).unwrap()).unwrap();
-        let run = host_tests::sim::simulate(
+        let run = beam_sim::sim::simulate(
             &m,
             model_core::Law::Pd(model_core::PdGains::BASELINE),
-            &host_tests::sim::SimOptions {
+            &beam_sim::sim::SimOptions {
                 duration_s: 2.0,
                 ..Default::default()
             },

@@ -14,7 +14,7 @@
 //! **What one rig's logs cannot tell.** Scaling Jm, density, EI, both friction terms and the
 //! torque's scale together leaves every logged signal unchanged (the beam's equation
 //! depends on EI/rho only, the strain on the curvature, and the hub's equation is linear
-//! in the rest; `host-tests/tests/physics.rs` checks it). So the torque balance gives
+//! in the rest; `beam-sim/tests/physics.rs` checks it). So the torque balance gives
 //! `s Jm`, `s rho`, `s c` and `s Fc` for an unknown torque scale `s`, and one more fact
 //! fixes the level: either the torque reads true (`s = 1`, the default), or the beam's
 //! density is known (a material's handbook value, `--known-density`), or the same move is
@@ -40,7 +40,7 @@ use crate::identify::replay::{
     requantised, HubMotion, StrainObserver, ENCODER_PHASES, HUB_WINDOW_S, MAX_STRAIN_DELAY_S,
 };
 use crate::io::params_file::Sensors;
-use host_tests::plant::{Plant, COULOMB_SMOOTHING_RAD_S};
+use beam_sim::plant::{Plant, COULOMB_SMOOTHING_RAD_S};
 use model_core::{Beam, BeamParams};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rayon::prelude::*;

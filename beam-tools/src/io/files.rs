@@ -6,7 +6,7 @@
 //! and for `/dev/null`, run as root, break every program on the machine that reads it.
 
 use crate::io::plot::PlotError;
-use host_tests::sim::SimResult;
+use beam_sim::sim::SimResult;
 use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! The paper's figures 2-5 as one image: hub angle with its reference, hub velocity, root
 //! strain and mid-span strain against time. PNG or SVG, chosen by the file's extension.
 
-use host_tests::sim::SimResult;
+use beam_sim::sim::SimResult;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -146,7 +146,7 @@ where
 {
     let s = &run.samples;
     let col =
-        |f: fn(&host_tests::sim::Sample) -> f64| s.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
+        |f: fn(&beam_sim::sim::Sample) -> f64| s.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
     let figures: [Figure; 5] = [
         (
             "Hub angle",

@@ -12,8 +12,8 @@
 //! fault N                  (simulated beam only) the amplifier's fault line for N ticks
 //! ```
 
+use beam_sim::commanded::Step;
 use beam_wire::command::{Command, Waypoint, MAX_WAYPOINTS};
-use host_tests::commanded::Step;
 
 /// A script line that could not be read.
 #[derive(Debug, PartialEq, thiserror::Error)]

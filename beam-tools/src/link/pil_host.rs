@@ -11,14 +11,14 @@
 
 use crate::link::telemetry::{self, mode_of, Decoded};
 use beam_drive::config::{build_commanded, build_controller_for, sequence_for, BuildError};
+use beam_sim::commanded::{run_script, CommandedDrive, CommandedRun, HostDrive, Step};
+use beam_sim::plant::Plant;
+use beam_sim::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
 use beam_wire::command::{Reply, Request};
 use beam_wire::{
     decode, encode, CommandFrame, DriveError, DriveMessage, FrameError, FrameReader, HostMessage,
     SensorFrame, MAX_FRAME,
 };
-use host_tests::commanded::{run_script, CommandedDrive, CommandedRun, HostDrive, Step};
-use host_tests::plant::Plant;
-use host_tests::sim::{run_with, DriveLoop, SimError, SimOptions, SimResult};
 use model_core::{ControllerSettings, FaultFlags, RawMeasurement, TorqueCommand};
 use model_core::{DriveTable, LawKind};
 use std::io::{BufReader, Read, Write};
@@ -573,7 +573,7 @@ pub fn run_pil_commands<const N: usize>(
     cfg: &PilConfig,
     home_rad: f32,
     script: &[Step],
-    sensors: host_tests::sensors::SensorConfig,
+    sensors: beam_sim::sensors::SensorConfig,
 ) -> Result<CommandedPilOutcome, PilError> {
     let config = |reason| PilError::Config {
         kind: cfg.controller,

@@ -209,7 +209,7 @@ pub fn write_records_csv(records: &[Record], ts_s: f64, w: &mut dyn Write) -> st
         writeln!(
             w,
             "{},{},{},{},{},{},{},{},{}",
-            host_tests::decimal::tick_time(k, ts_s),
+            beam_sim::decimal::tick_time(k, ts_s),
             r.tick,
             r.torque_nm,
             r.theta_rad,

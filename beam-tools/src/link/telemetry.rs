@@ -225,7 +225,7 @@ pub fn write_csv(
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{}",
-            host_tests::decimal::tick_time(i, ts_s),
+            beam_sim::decimal::tick_time(i, ts_s),
             r.tick,
             r.encoder_raw,
             r.strain_code,

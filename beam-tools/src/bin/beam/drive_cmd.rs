@@ -4,15 +4,15 @@
 
 use crate::{named, SettleArgs};
 use anyhow::{bail, Context};
+use beam_sim::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
+use beam_sim::metrics::SettleSpec;
+use beam_sim::sensors::SensorConfig;
 use beam_tools::link::drive_script;
 use beam_tools::link::pil_host::{
     build_plugin, paths, run_pil_commands, InsnProfile, InsnStats, PilConfig,
 };
 use beam_wire::command::{Command, Outcome, Request};
 use clap::Args;
-use host_tests::commanded::{run_commands, session_script, CommandedRun, Exchange, Step};
-use host_tests::metrics::SettleSpec;
-use host_tests::sensors::SensorConfig;
 use model_core::LawKind;
 use serde_json::json;
 use std::path::PathBuf;

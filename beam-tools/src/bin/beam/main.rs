@@ -39,12 +39,12 @@ mod replay_cmd;
 mod sweep_cmd;
 
 use anyhow::{anyhow, bail, Context};
+use beam_sim::metrics::{metrics_with, SettleSpec};
+use beam_sim::sensors::SensorConfig;
+use beam_sim::sim::{simulate, SimOptions, SimResult};
+use beam_sim::sim::{FaultKind, Injection, Motion, Via};
 use beam_tools::io::{files as io, plot, table_file};
 use clap::{Args, Parser, Subcommand};
-use host_tests::metrics::{metrics_with, SettleSpec};
-use host_tests::sensors::SensorConfig;
-use host_tests::sim::{simulate, SimOptions, SimResult};
-use host_tests::sim::{FaultKind, Injection, Motion, Via};
 use model_core::law::Setting;
 use model_core::{
     Beam, BeamParams, DriveTable, Law, LawKind, ModalModel, Preset, Shaper, ShaperKind, Switching,
@@ -526,7 +526,7 @@ impl RunArgs {
         self.settle.spec()?;
         Ok(SimOptions {
             duration_s: self.duration,
-            sensors: host_tests::sensors::SensorConfig {
+            sensors: beam_sim::sensors::SensorConfig {
                 seed: self.seed,
                 ..Default::default()
             },
@@ -825,7 +825,7 @@ fn simulate_n<const N: usize>(
 fn gains_json(law: &Law) -> serde_json::Value {
     // An f32 gain printed through f64 would show 0.1 as 0.10000000149011612: go by its
     // shortest decimal form instead.
-    let f = host_tests::decimal::f32_decimal;
+    let f = beam_sim::decimal::f32_decimal;
     let kind = law.kind();
     let mut out = serde_json::Map::new();
     for (name, v) in kind.gain_names().iter().zip(law.values()) {

@@ -3,13 +3,13 @@
 
 use crate::{beam, named, PlantArgs};
 use anyhow::{anyhow, bail, Context};
+use beam_sim::metrics::{CostSpec, Metrics};
 use beam_tools::design::optimize::{
     default_params, full_metrics, optimize, LoadHold, Objective, Outcome, Param, Scenario, Search,
     Spec, SHAPER_DAMPING, SHAPER_HZ,
 };
 use clap::{Args, ValueEnum};
 use gain_table::Gains;
-use host_tests::metrics::{CostSpec, Metrics};
 use model_core::{Beam, Law, LawKind, ModalModel, PdGains, Shaper, ShaperKind, Switching};
 use serde_json::json;
 use std::path::PathBuf;
@@ -347,7 +347,7 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         Law::Pd(PdGains::BASELINE),
         spec.instruments,
         a.seed,
-        host_tests::sim::Motion::default(),
+        beam_sim::sim::Motion::default(),
         spec.load_hold,
     )?;
     if let Some(path) = &a.table {
@@ -360,7 +360,7 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
 fn scenarios(
     a: &OptimizeArgs,
     nominal: &Beam,
-    motion: &host_tests::sim::Motion,
+    motion: &beam_sim::sim::Motion,
 ) -> anyhow::Result<Vec<Scenario>> {
     if a.robust == 0 {
         return Ok(vec![]);
@@ -415,7 +415,7 @@ fn scenarios(
                 (p.tip_mass_kg + a.payload_spread * (2.0 * rng.gen::<f64>() - 1.0)).max(0.0);
             let deg = a.moves[i % a.moves.len()];
             let half = (deg / 2.0).to_radians() as f32;
-            let m = host_tests::sim::Motion {
+            let m = beam_sim::sim::Motion {
                 from_rad: -half,
                 to_rad: half,
                 time_s: beam_tools::design::sweep::planned_time_s(deg) as f32,
@@ -533,7 +533,7 @@ fn write_row(
         );
     }
     // Store the f32 gains the drive will run, by their shortest decimals.
-    let f = host_tests::decimal::f32_decimal;
+    let f = beam_sim::decimal::f32_decimal;
     let law = &o.best.law;
     let values: Vec<f64> = law.values().iter().map(|&v| f(v)).collect();
     let gains = Gains::new(law.kind(), &values, law.settings());

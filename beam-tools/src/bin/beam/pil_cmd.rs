@@ -3,14 +3,14 @@
 
 use crate::{named, PlantArgs, RunArgs};
 use anyhow::{anyhow, bail, Context};
+use beam_sim::plant::Plant;
+use beam_sim::sim::SimOptions;
 use beam_tools::io::files as io;
 use beam_tools::link::pil_host::{
     build_plugin, paths, run_pil, InsnProfile, PilConfig, PilOutcome,
 };
 use beam_tools::link::telemetry::{self, Decoded};
 use clap::Args;
-use host_tests::plant::Plant;
-use host_tests::sim::SimOptions;
 use model_core::{Beam, LawKind, ModalModel};
 use serde_json::json;
 use std::path::PathBuf;

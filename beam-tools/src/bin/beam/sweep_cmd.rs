@@ -3,10 +3,10 @@
 
 use crate::{beam, damping_range, named, PlantArgs, SettleArgs};
 use anyhow::{bail, Context};
+use beam_sim::metrics::Metrics;
 use beam_tools::design::sweep::{sweep, trace_case, Case, LawSummary, SweepSpec, SUMMARY};
 use beam_tools::io::plot::{histograms, HistogramPanel};
 use clap::Args;
-use host_tests::metrics::Metrics;
 use model_core::{BeamParams, Law, LawKind, PdGains};
 use serde_json::json;
 use std::io::Write;

@@ -7,8 +7,8 @@
 
 mod common;
 
-use host_tests::metrics::metrics;
-use host_tests::sim::{simulate, Integrator, SimOptions, HAND_PICKED_SMC, HAND_PICKED_SMC_STRAIN};
+use beam_sim::metrics::metrics;
+use beam_sim::sim::{simulate, Integrator, SimOptions, HAND_PICKED_SMC, HAND_PICKED_SMC_STRAIN};
 use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
 
 fn model<const N: usize>(params: BeamParams) -> ModalModel<N> {
@@ -46,7 +46,7 @@ fn smc_and_pd_settle_the_aluminium_slew_and_smc_leaves_less_vibration() {
         "SMC residual RMS {rs} ue is not below PD's {rp} ue"
     );
     // Residual vibration once the move is well over: the largest root strain after 1 s.
-    let tail = |run: &host_tests::sim::SimResult| {
+    let tail = |run: &beam_sim::sim::SimResult| {
         run.samples
             .iter()
             .filter(|s| s.t >= 1.0)
@@ -166,7 +166,7 @@ fn fast_and_reference_integrators_give_the_same_closed_loop_metrics() {
 
 /// A step load at rest: the hub's deviation while loaded, deg, at the end of the load.
 fn deviation_under_load(law: Law) -> (f64, Option<Option<f64>>) {
-    use host_tests::sim::{FaultKind, Injection};
+    use beam_sim::sim::{FaultKind, Injection};
     let m = model::<3>(BeamParams::aluminium());
     let opts = SimOptions {
         duration_s: 3.0,
@@ -268,7 +268,7 @@ fn a_shaped_reference_cuts_the_residual_vibration_of_a_stiff_loop() {
     let law = Law::PdFf(model_core::PdFfGains { kp: 64.0, kd: 1.7 });
     let run = |shaper| {
         let opts = SimOptions {
-            motion: host_tests::sim::Motion {
+            motion: beam_sim::sim::Motion {
                 shaper,
                 ..Default::default()
             },
@@ -312,8 +312,8 @@ fn a_rig_wired_the_other_way_round_is_the_same_loop_once_its_drive_says_so() {
     }
     // And the raw readings really were mirrored: a reversed encoder counts the same edges
     // down.
-    let up = host_tests::sensors::Sensors::new(normal.sensors, 0.0);
-    let down = host_tests::sensors::Sensors::new(reversed.sensors, 0.0);
+    let up = beam_sim::sensors::Sensors::new(normal.sensors, 0.0);
+    let down = beam_sim::sensors::Sensors::new(reversed.sensors, 0.0);
     for theta in [0.01, -0.3, 2.0] {
         assert_eq!(down.count(theta), -up.count(theta));
         assert_ne!(up.count(theta), 0);

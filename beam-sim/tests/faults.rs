@@ -20,8 +20,8 @@
 
 mod common;
 
-use host_tests::metrics::metrics;
-use host_tests::sim::{simulate, FaultKind, Injection, SimOptions, SimResult};
+use beam_sim::metrics::metrics;
+use beam_sim::sim::{simulate, FaultKind, Injection, SimOptions, SimResult};
 use model_core::controller::{STALL_TICKS, STALL_TORQUE_FRACTION};
 use model_core::{Beam, BeamParams, FaultFlags, Law, LawKind, ModalModel, Mode};
 

@@ -2,7 +2,7 @@
 //! momentum, the hub-free frequency of the linearised model, Southwell's law for a spinning
 //! beam, and agreement of the fast RK4 integrator with the adaptive DOP853 reference.
 
-use host_tests::plant::{Plant, State};
+use beam_sim::plant::{Plant, State};
 use model_core::{Beam, BeamParams, ModalModel};
 
 fn plant<const N: usize>(params: BeamParams) -> Plant<N> {

@@ -3,9 +3,9 @@
 
 mod common;
 
+use beam_sim::commanded::{run_commands, session_script, CommandedRun, Step};
+use beam_sim::sensors::SensorConfig;
 use beam_wire::command::{Command, Outcome, Refusal};
-use host_tests::commanded::{run_commands, session_script, CommandedRun, Step};
-use host_tests::sensors::SensorConfig;
 use model_core::{BeamParams, LawKind, Mode};
 
 const DEG: f32 = core::f32::consts::PI / 180.0;

@@ -8,8 +8,8 @@
 
 mod common;
 
-use host_tests::plant::Plant;
-use host_tests::sim::{
+use beam_sim::plant::Plant;
+use beam_sim::sim::{
     run_with, settings_for, DriveLoop, Motion, SimError, SimOptions, HAND_PICKED_LQG,
 };
 use model_core::lqg::{DESIGN_MODES, MAX_STATES};

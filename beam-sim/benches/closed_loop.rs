@@ -1,13 +1,13 @@
 //! Speed of the host simulation and of one controller tick (criterion; run with
-//! `cargo bench -p host-tests`). Figures are recorded in docs/testing.md.
+//! `cargo bench -p beam-sim`). Figures are recorded in docs/testing.md.
 
 // criterion_group! generates an undocumented public function.
 #![allow(missing_docs)]
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use host_tests::sim::{
+use beam_sim::sim::{
     paper_slew, settings_for, simulate, SimOptions, HAND_PICKED_LQG, HAND_PICKED_SMC,
 };
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use model_core::{Beam, BeamParams, ControlLaw, Controller, Law, ModalModel, RawMeasurement};
 
 fn model<const N: usize>() -> ModalModel<N> {
