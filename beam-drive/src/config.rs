@@ -7,7 +7,8 @@
 //! `firmware` crate's `TABLE`); the PIL host and `beam drive --sim` pass the table they
 //! loaded, so both ends build the same drive. Nothing of the model is computed here.
 
-use model_core::commands::{CommandedController, Commander, SetupError};
+use model_core::commands::{CommandedController, Commander, CommanderIn, SetupError};
+use model_core::law::{LawSet, ALL_LAWS};
 use model_core::shaper::shaped_quintic;
 use model_core::{
     ConfigError, Controller, DriveTable, LawKind, ShaperError, Spline, SplineError, Timing,
@@ -58,16 +59,17 @@ pub enum BuildError {
     Rest(SplineError),
 }
 
-/// The controller for `table`'s drive carrying `payload_kg`, running `kind`, idle and armed
-/// with `first` (the board's: its start button's first move).
-pub fn controller_with(
+/// The controller for `table`'s drive carrying `payload_kg`, running `kind` built in the law
+/// set `LAWS` (the board's holds its law alone), idle and armed with `first` (the board's:
+/// its start button's first move).
+pub fn controller_with<const LAWS: LawSet>(
     table: &DriveTable<'_>,
     kind: LawKind,
     payload_kg: f32,
     first: Spline<MOVE_KNOTS>,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let law = table
-        .build_law(kind, payload_kg)
+        .build_law_in::<LAWS>(kind, payload_kg)
         .map_err(BuildError::Setup)?;
     Controller::try_build(table.settings(SLEW_FROM_RAD), law, first).map_err(BuildError::Config)
 }
@@ -79,8 +81,18 @@ pub fn build_controller_for(
     kind: LawKind,
     payload_kg: f32,
 ) -> Result<Controller<MOVE_KNOTS>, BuildError> {
+    build_controller_in::<ALL_LAWS>(table, kind, payload_kg)
+}
+
+/// [`build_controller_for`] in a build that holds the laws `LAWS` (the PIL drive built as the
+/// board is).
+pub fn build_controller_in<const LAWS: LawSet>(
+    table: &DriveTable<'_>,
+    kind: LawKind,
+    payload_kg: f32,
+) -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let [first, _] = sequence_for(table, kind, payload_kg)?;
-    controller_with(table, kind, payload_kg, first)
+    controller_with::<LAWS>(table, kind, payload_kg, first)
 }
 
 /// A commanded drive for `table`: its controller, idle at `home_rad` (the encoder's zero),
@@ -91,8 +103,19 @@ pub fn build_commanded<'t>(
     payload_kg: f32,
     home_rad: f32,
 ) -> Result<(CommandedController, Commander<'t>), BuildError> {
+    build_commanded_in::<ALL_LAWS>(table, kind, payload_kg, home_rad)
+}
+
+/// [`build_commanded`] in a build that holds the laws `LAWS` (the PIL drive built as the
+/// board is).
+pub fn build_commanded_in<'t, const LAWS: LawSet>(
+    table: &'t DriveTable<'t>,
+    kind: LawKind,
+    payload_kg: f32,
+    home_rad: f32,
+) -> Result<(CommandedController, CommanderIn<'t, LAWS>), BuildError> {
     let (commander, law) =
-        Commander::try_new(table, kind, payload_kg).map_err(BuildError::Setup)?;
+        CommanderIn::<LAWS>::try_new(table, kind, payload_kg).map_err(BuildError::Setup)?;
     // Until the first command plans a move, the controller holds a move of no length.
     let rest = Spline::try_build(&[(0.0, home_rad), (1.0, home_rad)]).map_err(BuildError::Rest)?;
     let controller =

@@ -10,6 +10,7 @@
 //! latched [`model_core::FaultFlags::DRIVER`] fault and the actuator is disabled.
 
 pub use crate::ads1220::Sample;
+use model_core::law::{LawSet, ALL_LAWS};
 use model_core::{
     CommandError, Controller, FaultFlags, Mode, RawMeasurement, Spline, TorqueCommand,
 };
@@ -136,7 +137,14 @@ where
     }
 
     /// One control tick. Never blocks or panics.
+    #[inline(always)] // the call is to `tick_in`, as the board's is
     pub fn tick(&mut self) -> Telemetry {
+        self.tick_in::<ALL_LAWS>()
+    }
+
+    /// [`Drive::tick`] in a build that holds the laws `LAWS` only (the board's, whose
+    /// controller's law was built in that set): no other law's arm in the dispatch.
+    pub fn tick_in<const LAWS: LawSet>(&mut self) -> Telemetry {
         let encoder_raw = self.encoder.count();
         let (sample, adc_ok) = match self.strain.poll() {
             Ok(s) => (s, s.stale_polls <= MAX_STALE_TICKS),
@@ -149,7 +157,7 @@ where
             amp_fault,
             driver_fault: self.driver_failed || !adc_ok,
         };
-        let cmd = self.controller.step(&raw);
+        let cmd = self.controller.step_in::<LAWS>(&raw);
         self.driver_failed = self.actuator.apply(&cmd).is_err();
         if self.driver_failed {
             // Best effort: whichever signal still works turns the torque off, and the next
@@ -220,9 +228,9 @@ where
 {
     /// Carries out a command of the wire protocol through `commander` (between ticks; it
     /// takes effect at the next one). Clearing a fault also clears a driver failure.
-    pub fn handle(
+    pub fn handle<const LAWS: LawSet>(
         &mut self,
-        commander: &mut model_core::commands::Commander,
+        commander: &mut model_core::commands::CommanderIn<'_, LAWS>,
         request: &beam_wire::command::Request,
     ) -> beam_wire::command::Reply {
         let reply = commander.handle(&mut self.controller, request);
@@ -239,9 +247,9 @@ where
 
     /// Swaps in an action prepared outside the tick
     /// ([`Commander::prepare`](model_core::commands::Commander::prepare)), whole.
-    pub fn apply(
+    pub fn apply<const LAWS: LawSet>(
         &mut self,
-        commander: &mut model_core::commands::Commander,
+        commander: &mut model_core::commands::CommanderIn<'_, LAWS>,
         action: model_core::commands::Action,
     ) -> Result<beam_wire::command::Outcome, beam_wire::command::Refusal> {
         let clear = action == model_core::commands::Action::ClearFault;

@@ -91,7 +91,7 @@ pub struct Board {
     /// See `link_tx`.
     pub link_rx: Rx1,
     /// The command handler, with the compiled-in law and payload.
-    pub commander: model_core::commands::Commander<'static>,
+    pub commander: firmware::BoardCommander,
 }
 
 /// Why the board did not come up. The amplifier is never enabled in any of these cases.
@@ -189,7 +189,7 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         .map_err(|_| BringUpError::Link)?;
     let (link_tx, mut link_rx) = link.split();
     link_rx.listen();
-    let (commander, _) = model_core::commands::Commander::try_new(
+    let (commander, _) = firmware::BoardCommander::try_new(
         &firmware::TABLE,
         firmware::CONTROLLER,
         firmware::PAYLOAD_KG,

@@ -14,6 +14,7 @@
 #![forbid(unsafe_code)]
 
 use beam_drive::config::{controller_with, BuildError, MOVE_KNOTS};
+use model_core::law::LawSet;
 use model_core::{Controller, DriveTable, LawKind, Spline};
 
 include!(concat!(env!("OUT_DIR"), "/gain_table.rs"));
@@ -28,7 +29,7 @@ pub const TABLE: DriveTable<'static> = DriveTable {
 };
 
 /// The same drive with every law's rows and designs: what the PIL drive runs, which can be
-/// set up for any law.
+/// set up for any law ([`LAWS`] says which it holds).
 pub const ALL_LAWS: DriveTable<'static> = DriveTable {
     rows: ALL_ROWS,
     designs: ALL_DESIGNS,
@@ -37,6 +38,16 @@ pub const ALL_LAWS: DriveTable<'static> = DriveTable {
 
 /// The law the board runs (the table's `[drive]`).
 pub const CONTROLLER: LawKind = DRIVE.law;
+/// The laws this build holds: with `drive-law-only` (the board, `cargo fw`) its law alone, so
+/// the others' code is not in the binary and a command for another is refused; else every
+/// law. Passed to the core as a const generic (`ControlLaw::try_build_in`, `Drive::tick_in`).
+pub const LAWS: LawSet = if cfg!(feature = "drive-law-only") {
+    model_core::law::only(CONTROLLER)
+} else {
+    model_core::law::ALL_LAWS
+};
+/// The board's command handler: its table, in its law set.
+pub type BoardCommander = model_core::commands::CommanderIn<'static, LAWS>;
 /// The payload it starts with, kg (the table's `[drive]`).
 pub const PAYLOAD_KG: f32 = DRIVE.payload_kg;
 /// The amplifier's scale (the table's `[drive]`).
@@ -50,7 +61,7 @@ pub const TORQUE_REVERSED: bool = DRIVE.torque_reversed;
 /// button's first move.
 pub fn build_controller() -> Result<Controller<MOVE_KNOTS>, BuildError> {
     let [first, _] = sequence()?;
-    controller_with(&TABLE, CONTROLLER, PAYLOAD_KG, first)
+    controller_with::<LAWS>(&TABLE, CONTROLLER, PAYLOAD_KG, first)
 }
 
 /// The start button's moves, out to +90 deg and back to -90 deg, from the knots the build

@@ -24,7 +24,6 @@ mod app {
     use beam_drive::link::Link;
     use beam_wire::command::{Outcome, Record, Refusal, Reply};
     use heapless::spsc::{Consumer, Producer, Queue};
-    use model_core::commands::Commander;
     use stm32f4xx_hal::pac::Interrupt;
     use stm32f4xx_hal::prelude::*;
     use stm32f4xx_hal::serial::{Rx1, RxISR, Tx1, TxISR, TxListen};
@@ -54,7 +53,7 @@ mod app {
         watchdog: IndependentWatchdog,
         link_tx: Tx1,
         link_rx: Rx1,
-        commander: Commander<'static>,
+        commander: firmware::BoardCommander,
         telemetry_in: Producer<'static, Telemetry, TELEMETRY_SLOTS>,
         telemetry_out: Consumer<'static, Telemetry, TELEMETRY_SLOTS>,
     }
@@ -105,7 +104,7 @@ mod app {
         cx.local.loop_timer.clear_flags(Flag::Update);
         let operator = cx.local.operator;
         let t = cx.shared.drive.lock(|drive| {
-            let t = drive.tick();
+            let t = drive.tick_in::<{ firmware::LAWS }>();
             if let Some(command) = operator.poll(t.theta_rad) {
                 // A refused command (busy, faulted) changes nothing; the telemetry shows why.
                 let _ = drive.command(command);

@@ -18,7 +18,7 @@
 
 use crate::controller::{Controller, Mode, Snapshot};
 use crate::error::{CommandError, PlanError};
-use crate::law::{ControlLaw, LawKind};
+use crate::law::{ControlLaw, LawKind, LawSet, ALL_LAWS};
 use crate::planner::{
     plan_brake, plan_stop, plan_through, Limits, Plan, Waypoint, SHAPED_PLAN_KNOTS,
 };
@@ -31,10 +31,11 @@ pub use beam_wire::command::{Command, Outcome, Refusal, Reply, Request, Status};
 /// The controller a commanded drive runs: its moves are planned, shaped moves.
 pub type CommandedController = Controller<SHAPED_PLAN_KNOTS>;
 
-/// What the handler keeps between commands: the plant, the table, the law, and what is
-/// scheduled for the present payload.
+/// What the handler keeps between commands: the drive's table, the law, and what is
+/// scheduled for the present payload; in a build that holds the laws `LAWS` ([`LawSet`]: the
+/// board's holds its own alone, [`Commander`] every law).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Commander<'t> {
+pub struct CommanderIn<'t, const LAWS: LawSet> {
     table: &'t DriveTable<'t>,
     kind: LawKind,
     payload_kg: f32,
@@ -45,7 +46,10 @@ pub struct Commander<'t> {
     current: Option<Plan>,
 }
 
-impl<'t> Commander<'t> {
+/// The command handler of a build that holds every law (the host's, the PIL drive's).
+pub type Commander<'t> = CommanderIn<'t, ALL_LAWS>;
+
+impl<'t, const LAWS: LawSet> CommanderIn<'t, LAWS> {
     /// The handler for `kind` on `table`'s drive carrying `payload_kg`, with the law to build
     /// the controller with. An observer law (lqg, smc-modal) needs the `observer` feature and
     /// the table's designs; without them it is refused.
@@ -54,7 +58,7 @@ impl<'t> Commander<'t> {
         kind: LawKind,
         payload_kg: f32,
     ) -> Result<(Self, ControlLaw), SetupError> {
-        let (law, shaper, limits) = table.configure(kind, payload_kg)?;
+        let (law, shaper, limits) = table.configure::<LAWS>(kind, payload_kg)?;
         let me = Self {
             table,
             kind,
@@ -148,10 +152,12 @@ impl<'t> Commander<'t> {
             Command::SetPayload { kg } => {
                 ready?;
                 let (law, shaper, limits) =
-                    self.table.configure(self.kind, *kg).map_err(|e| match e {
-                        SetupError::NoGains => Refusal::NoGains,
-                        SetupError::Payload | SetupError::Gains(_) => Refusal::BadArgument,
-                    })?;
+                    self.table
+                        .configure::<LAWS>(self.kind, *kg)
+                        .map_err(|e| match e {
+                            SetupError::NoGains => Refusal::NoGains,
+                            SetupError::Payload | SetupError::Gains(_) => Refusal::BadArgument,
+                        })?;
                 Ok(Action::SetPayload(Schedule {
                     payload_kg: *kg,
                     law,

@@ -13,7 +13,7 @@
 
 pub use crate::error::{CommandError, ConfigError};
 use crate::error::{ParamError, ParamErrorKind};
-use crate::law::{ControlLaw, Estimate, LawState};
+use crate::law::{ControlLaw, Estimate, LawSet, LawState, ALL_LAWS};
 use crate::measure::Instruments;
 use crate::measure::{
     angle_rad, AdcSpec, CounterExtender, CounterWidth, EncoderSpec, FixedRate, LowPass,
@@ -552,7 +552,15 @@ impl<const K: usize> Controller<K> {
     /// 4. `detect_faults`: any fault latches the Fault mode;
     /// 5. `advance`: the reference point, Slewing to Holding at the end;
     /// 6. `command`: the law, saturation, and the stall watch.
+    #[inline(always)] // the call is to `step_in`, as the board's is
     pub fn step(&mut self, raw: &RawMeasurement) -> TorqueCommand {
+        self.step_in::<ALL_LAWS>(raw)
+    }
+
+    /// [`Controller::step`] in a build that holds the laws `LAWS` only ([`LawSet`]; the law
+    /// was built in it, `ControlLaw::try_build_in`): the board's tick, with no other law's
+    /// arm in its dispatch.
+    pub fn step_in<const LAWS: LawSet>(&mut self, raw: &RawMeasurement) -> TorqueCommand {
         let hub = self.estimate_hub(raw);
         let mut faults = hub.faults;
         faults.insert(self.take_start(hub.theta));
@@ -571,7 +579,7 @@ impl<const K: usize> Controller<K> {
             self.st.mode = Mode::Fault;
         }
         let reference = self.advance(x.theta);
-        let torque_nm = self.command(&x, reference.as_ref(), hub.delta);
+        let torque_nm = self.command::<LAWS>(&x, reference.as_ref(), hub.delta);
         TorqueCommand {
             torque_nm,
             mode: self.st.mode,
@@ -735,13 +743,18 @@ impl<const K: usize> Controller<K> {
     /// (`delta` 0) for [`STALL_TICKS`] under at least [`STALL_TORQUE_FRACTION`] of the limit
     /// latches [`FaultFlags::ENCODER_STUCK`]. Returns the torque to apply.
     #[inline(always)]
-    fn command(&mut self, x: &Estimate, reference: Option<&RefPoint>, delta: i32) -> f32 {
+    fn command<const LAWS: LawSet>(
+        &mut self,
+        x: &Estimate,
+        reference: Option<&RefPoint>,
+        delta: i32,
+    ) -> f32 {
         let (cfg, st) = (&self.cfg, &mut self.st);
         let mut torque = 0.0;
         if let Some(r) = reference {
             torque = cfg
                 .law
-                .torque_nm(x, r, &mut st.law_state, cfg.settings.ts_s);
+                .torque_nm_in::<LAWS>(x, r, &mut st.law_state, cfg.settings.ts_s);
             if !torque.is_finite() {
                 st.faults.insert(FaultFlags::NON_FINITE);
                 st.mode = Mode::Fault;

@@ -157,22 +157,30 @@ pub trait LawGains: GainLayout {
     ) -> f32;
 }
 
-/// The one law a drive built with model-core's `drive-law-only` feature holds (the board:
-/// `cargo fw`): the `[drive] law` of the gain table the board is built from, which this
-/// crate's build script reads for that feature alone (`BEAM_GAIN_TABLE`, or the repository's
-/// `gains.toml`), so that the other laws' code is not in the board's binary. Every other law
-/// is refused when it is built ([`ParamErrorKind::NotBuiltIn`]). `None` without the feature
-/// (the host, the PIL drive): every law, and no table is read.
-pub const ONLY_LAW: Option<LawKind> = include!(concat!(env!("OUT_DIR"), "/only_law.rs"));
+/// A set of laws, a bit per [`LawKind`] (by its discriminant): which laws a build holds. The
+/// host holds them all ([`ALL_LAWS`]); a board holds its table's law alone
+/// ([`only`]`(kind)`), passed down as a const generic (`ControlLaw::try_build_in`,
+/// `Controller::step_in`), so the other laws' arms are dropped from the dispatch and their
+/// code is not in its binary. A law not in the set is refused when it is built
+/// ([`ParamErrorKind::NotBuiltIn`]).
+pub type LawSet = u8;
 
-/// Whether this build holds law `kind` ([`ONLY_LAW`]). A constant wherever `kind` is, so the
-/// dispatch below drops the other laws' arms.
-pub const fn built_in(kind: LawKind) -> bool {
-    match ONLY_LAW {
-        Some(only) => only as u8 == kind as u8,
-        None => true,
-    }
+/// Every law.
+pub const ALL_LAWS: LawSet = LawSet::MAX;
+
+/// The set of law `kind` alone.
+pub const fn only(kind: LawKind) -> LawSet {
+    1 << kind as u8
 }
+
+/// Whether the set `laws` holds law `kind`. A constant wherever `kind` is, so the dispatch
+/// below drops the other laws' arms.
+pub const fn holds(laws: LawSet, kind: LawKind) -> bool {
+    laws & only(kind) != 0
+}
+
+// A bit per law.
+const _: () = assert!(LawKind::ALL.len() <= LawSet::BITS as usize);
 
 /// Makes [`Law`]'s constructors and dispatch from the list of laws.
 macro_rules! laws {
@@ -229,7 +237,7 @@ macro_rules! laws {
                 }
             }
 
-            fn build(
+            fn build<const LAWS: LawSet>(
                 &self,
                 plain: ControlLaw,
                 point: &PlantPoint,
@@ -238,7 +246,7 @@ macro_rules! laws {
                 let (v, s) = (self.values, self.settings);
                 match self.kind {
                     $(
-                        LawKind::$kind if built_in(LawKind::$kind) => {
+                        LawKind::$kind if const { holds(LAWS, LawKind::$kind) } => {
                             $gains::from_values(v, s).build(plain, point, plant)
                         }
                     )+
@@ -250,7 +258,7 @@ macro_rules! laws {
             }
 
             #[inline(always)]
-            fn torque_nm(
+            fn torque_nm<const LAWS: LawSet>(
                 &self,
                 law: &ControlLaw,
                 x: &Estimate,
@@ -261,7 +269,7 @@ macro_rules! laws {
                 let (v, s) = (self.values, self.settings);
                 match self.kind {
                     $(
-                        LawKind::$kind if built_in(LawKind::$kind) => {
+                        LawKind::$kind if const { holds(LAWS, LawKind::$kind) } => {
                             $gains::from_values(v, s).torque_nm(law, x, r, state, ts_s)
                         }
                     )+
@@ -452,8 +460,18 @@ impl ControlLaw {
     /// read through instruments (`crate::table::Instruments::on`). The observer laws are
     /// designed on the last only (sampled at [`crate::DEFAULT_TS_S`], with the instruments'
     /// noise as the observer's); on the others they are refused.
-    #[inline(never)] // one copy per plant type: the board builds a law in two places
+    #[inline(always)] // the call is to `try_build_in`
     pub fn try_build(law: Law, plant: impl LawPlant) -> Result<Self, ParamError> {
+        Self::try_build_in::<ALL_LAWS>(law, plant)
+    }
+
+    /// [`ControlLaw::try_build`] in a build that holds the laws `LAWS` ([`LawSet`]): a law
+    /// outside them is refused, and no other law's code is linked.
+    #[inline(never)] // one copy per plant type: the board builds a law in two places
+    pub fn try_build_in<const LAWS: LawSet>(
+        law: Law,
+        plant: impl LawPlant,
+    ) -> Result<Self, ParamError> {
         let point = plant.point();
         let plain = Self {
             law,
@@ -466,7 +484,7 @@ impl ControlLaw {
         };
         // Every gain's sign, by the law's spec; then what the law needs of the plant.
         law.check()?;
-        law.build(plain, &point, &plant)
+        law.build::<LAWS>(plain, &point, &plant)
     }
 
     /// The law as chosen.
@@ -487,7 +505,20 @@ impl ControlLaw {
     /// hint let it be outlined, which cost about 30 instructions a tick.
     #[inline(always)]
     pub fn torque_nm(&self, x: &Estimate, r: &RefPoint, state: &mut LawState, ts_s: f32) -> f32 {
-        self.law.torque_nm(self, x, r, state, ts_s)
+        self.torque_nm_in::<ALL_LAWS>(x, r, state, ts_s)
+    }
+
+    /// [`ControlLaw::torque_nm`] dispatched over the laws `LAWS` only (the set the law was
+    /// built in, [`ControlLaw::try_build_in`]).
+    #[inline(always)]
+    pub fn torque_nm_in<const LAWS: LawSet>(
+        &self,
+        x: &Estimate,
+        r: &RefPoint,
+        state: &mut LawState,
+        ts_s: f32,
+    ) -> f32 {
+        self.law.torque_nm::<LAWS>(self, x, r, state, ts_s)
     }
 }
 
@@ -569,22 +600,34 @@ pub(crate) mod tests {
         ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
     }
 
-    /// Built for one law (the board: `cargo test -p model-core --features drive-law-only
-    /// --lib one_law`, which CI runs), the table's `[drive]` law builds and every other is
-    /// refused by name.
-    #[cfg(feature = "drive-law-only")]
+    /// Built for one law (the board's `only(its law)`), that law builds and every other is
+    /// refused by name; built for every law, every law builds.
     #[test]
     fn a_drive_built_for_one_law_refuses_the_others() {
         let point = PlantPoint::of(&model());
-        let only = ONLY_LAW.expect("the feature names one law");
-        for &kind in LawKind::ALL {
-            let built = ControlLaw::try_build(Law::start(kind), point);
-            if kind == only {
-                assert!(built.is_ok(), "{kind}: {built:?}");
-            } else {
-                let e = built.unwrap_err();
-                assert_eq!((e.field, e.kind), (kind.name(), ParamErrorKind::NotBuiltIn));
+        for &one in LawKind::ALL.iter().filter(|k| !k.has_observer()) {
+            for &kind in LawKind::ALL {
+                let built = match one {
+                    LawKind::Pd => ControlLaw::try_build_in::<{ only(LawKind::Pd) }>,
+                    LawKind::Smc => ControlLaw::try_build_in::<{ only(LawKind::Smc) }>,
+                    LawKind::SmcStrain => ControlLaw::try_build_in::<{ only(LawKind::SmcStrain) }>,
+                    LawKind::PdFf => ControlLaw::try_build_in::<{ only(LawKind::PdFf) }>,
+                    _ => ControlLaw::try_build_in::<{ only(LawKind::SmcI) }>,
+                }(Law::start(kind), point);
+                if kind == one {
+                    assert!(built.is_ok(), "{kind}: {built:?}");
+                } else {
+                    let e = built.unwrap_err();
+                    assert_eq!((e.field, e.kind), (kind.name(), ParamErrorKind::NotBuiltIn));
+                }
             }
+        }
+        for &kind in LawKind::ALL.iter().filter(|k| !k.has_observer()) {
+            assert!(holds(ALL_LAWS, kind));
+            assert!(
+                ControlLaw::try_build(Law::start(kind), point).is_ok(),
+                "{kind}"
+            );
         }
     }
 

@@ -16,7 +16,7 @@
 
 use crate::beam::ParamError;
 use crate::controller::ControllerSettings;
-use crate::law::{ControlLaw, Law, LawKind, LawPlant, LqgGains, LQG_MODES};
+use crate::law::{ControlLaw, Law, LawKind, LawPlant, LawSet, LqgGains, ALL_LAWS, LQG_MODES};
 pub use crate::measure::Instruments;
 use crate::modal::ModalModel;
 use crate::planner::Limits;
@@ -175,34 +175,45 @@ impl<'t> DriveTable<'t> {
     }
 
     /// Law `kind` at `payload_kg`, validated and built on the plant there (with its design,
-    /// for an observer law). Without the `observer`
-    /// feature an observer law is refused whatever the designs, and nothing of them is linked.
+    /// for an observer law). Without the `observer` feature an observer law is refused
+    /// whatever the designs, and nothing of them is linked.
     pub fn build_law(&self, kind: LawKind, payload_kg: f32) -> Result<ControlLaw, SetupError> {
+        self.build_law_in::<ALL_LAWS>(kind, payload_kg)
+    }
+
+    /// [`DriveTable::build_law`] in a build that holds the laws `LAWS` ([`LawSet`]): the
+    /// board's, which holds its own law alone.
+    pub fn build_law_in<const LAWS: LawSet>(
+        &self,
+        kind: LawKind,
+        payload_kg: f32,
+    ) -> Result<ControlLaw, SetupError> {
         let gains = self.law(kind, payload_kg).ok_or(SetupError::NoGains)?;
         #[cfg(feature = "observer")]
         let law = {
             let plant = self
                 .designed_plant(kind, payload_kg)
                 .ok_or(SetupError::Payload)?;
-            ControlLaw::try_build(gains, plant)
+            ControlLaw::try_build_in::<LAWS>(gains, plant)
         };
         #[cfg(not(feature = "observer"))]
         let law = {
             let point = self.plant.at(payload_kg).ok_or(SetupError::Payload)?;
-            ControlLaw::try_build(gains, point)
+            ControlLaw::try_build_in::<LAWS>(gains, point)
         };
         law.map_err(SetupError::Gains)
     }
 
     /// What a command handler runs law `kind` with at `payload_kg`: the law
-    /// ([`DriveTable::build_law`]), its shaper and the planner's limits (with the observer
-    /// laws' floor on a move's length, a number of the beam's first periods there).
-    pub fn configure(
+    /// ([`DriveTable::build_law_in`], in the build's law set `LAWS`), its shaper and the
+    /// planner's limits (with the observer laws' floor on a move's length, a number of the
+    /// beam's first periods there).
+    pub fn configure<const LAWS: LawSet>(
         &self,
         kind: LawKind,
         payload_kg: f32,
     ) -> Result<(ControlLaw, Shaper, Limits), SetupError> {
-        let law = self.build_law(kind, payload_kg)?;
+        let law = self.build_law_in::<LAWS>(kind, payload_kg)?;
         let point = self.plant.at(payload_kg).ok_or(SetupError::Payload)?;
         #[allow(unused_mut)]
         let mut limits = Limits::for_plant(point);

@@ -4,7 +4,7 @@
 use beam_drive::ads1220::Ads1220;
 use beam_drive::amplifier::Amplifier;
 use beam_drive::config::{
-    build_commanded, build_controller_for, nearest, sequence_for, MOVE_KNOTS, SLEW_FROM_RAD,
+    build_commanded_in, build_controller_in, nearest, sequence_for, MOVE_KNOTS, SLEW_FROM_RAD,
 };
 use beam_drive::drive::{Command, Drive};
 use beam_drive::fakes::{Bench, Bus, Counter, DataReady, Direction, Enable, Line, Pwm};
@@ -136,7 +136,7 @@ where
     A: beam_drive::drive::Actuator,
 {
     insn_mark_start();
-    let t = drive.tick();
+    let t = drive.tick_in::<{ firmware::LAWS }>();
     insn_mark_end();
     t.log();
     link.send(&DriveMessage::Command(CommandFrame {
@@ -152,8 +152,9 @@ where
 
 /// The compiled-in move sequence, started by the START flag of the sensor frames.
 fn run_sequence(link: &mut Link, kind: LawKind, payload_kg: f32) -> Result<(), DriveError> {
-    let controller = build_controller_for(&firmware::ALL_LAWS, kind, payload_kg)
-        .map_err(|_| DriveError::Config)?;
+    let controller =
+        build_controller_in::<{ firmware::LAWS }>(&firmware::ALL_LAWS, kind, payload_kg)
+            .map_err(|_| DriveError::Config)?;
     let moves =
         sequence_for(&firmware::ALL_LAWS, kind, payload_kg).map_err(|_| DriveError::Config)?;
     let bench = Bench::new();
@@ -190,7 +191,7 @@ fn run_commanded(
     home_rad: f32,
 ) -> Result<(), DriveError> {
     let (controller, mut commander) =
-        build_commanded(&firmware::ALL_LAWS, kind, payload_kg, home_rad)
+        build_commanded_in::<{ firmware::LAWS }>(&firmware::ALL_LAWS, kind, payload_kg, home_rad)
             .map_err(|_| DriveError::Config)?;
     let bench = Bench::new();
     let mut drive = bench_drive(controller, &bench)?;
