@@ -2,35 +2,11 @@
 //! runs (`--table`), its instruments used for the simulated sensors and the observer laws'
 //! designs; and `beam flash`, which flashes what was built and says what is missing.
 
+mod common;
+
+use common::{beam, json, scratch, shipped_path as shipped};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn beam(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_beam"))
-        .args(args)
-        .env_remove("BEAM_GAIN_TABLE")
-        .output()
-        .expect("run beam")
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("beam-table-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn shipped() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml")
-}
+use std::process::Output;
 
 /// The shipped table with `[drive]`'s `key = value` lines replaced, written to `dir`.
 fn table_with(dir: &Path, name: &str, replace: &[(&str, &str)]) -> PathBuf {

@@ -1,6 +1,8 @@
 //! Identification: the model's parameters from logged moves, and the model against a log.
 
 pub mod calibrate;
+pub mod hub;
 pub mod lsq;
+pub mod prescribed;
 pub mod replay;
 pub mod split;

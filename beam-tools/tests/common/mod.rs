@@ -1,16 +1,51 @@
-//! The repository's shipped gain table, loaded at run time as the host tools load a table:
-//! the drive configuration the tests run against where they want the shipped gains.
+//! What the integration tests share: the `beam` binary as a user runs it, and the
+//! repository's shipped gain table, loaded at run time as the host tools load a table.
+// Each test file uses some of these.
+#![allow(dead_code)]
 
 use model_core::DriveTable;
+use std::path::PathBuf;
+use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 /// The shipped `gains.toml`, loaded once.
 pub fn shipped() -> &'static DriveTable<'static> {
     static TABLE: OnceLock<&'static DriveTable<'static>> = OnceLock::new();
     TABLE.get_or_init(|| {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml");
-        gain_table::open(&path)
+        gain_table::open(&shipped_path())
             .expect("the shipped gain table loads")
             .leak()
     })
+}
+
+/// The shipped `gains.toml`.
+pub fn shipped_path() -> PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml")
+}
+
+/// `beam ARGS`, with no `BEAM_GAIN_TABLE` from the caller's environment (the default table is
+/// the repository's).
+pub fn beam(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_beam"))
+        .args(args)
+        .env_remove("BEAM_GAIN_TABLE")
+        .output()
+        .expect("run beam")
+}
+
+/// The one JSON object a successful run prints.
+pub fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
+}
+
+/// A fresh scratch directory of this test process.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("beam-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }
