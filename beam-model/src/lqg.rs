@@ -458,12 +458,9 @@ pub fn leading_modes<const N: usize, const M: usize>(
     })
 }
 
-/// Designs the observer and the state feedback for `model` sampled at `ts_s`.
-///
-/// One function of about 190 lines on purpose: its steps (the continuous model, its
-/// sampling, the two Riccati equations, the reference beam and the feedforward) run once,
-/// in order, and share a dozen fixed-size matrices; split, each piece would take most of
-/// them as arguments and read no clearer.
+/// Designs the observer and the state feedback for `model` sampled at `ts_s`: the continuous
+/// model sampled, the regulator ([`regulator`]), the Kalman filter ([`kalman`]), both in the
+/// drive's fixed layout, then the reference beam and the feedforward ([`reference_beam`]).
 pub fn design<const N: usize>(
     model: &ModalModel<N>,
     weights: &LqgWeights,
@@ -486,83 +483,9 @@ pub fn design<const N: usize>(
     if (0..nx).any(|i| ad[i][0] != if i == 0 { 1.0 } else { 0.0 }) {
         return Err(LqgError::Numerics);
     }
-
-    // Regulator on [x; z], z the integral of the hub angle error: z+ = z + ts theta.
-    let na = nx + 1;
-    let mut aa = ad;
-    aa[nx][nx] = 1.0;
-    aa[nx][0] = ts_s;
-    let mut ba = bd;
-    ba[nx] = 0.0;
-    let mut q = ZERO;
-    q[0][0] = weights.kp * weights.kp;
-    q[1 + N][1 + N] = weights.kd * weights.kd;
-    for i in 0..N {
-        for j in 0..N {
-            // The vibration energy 1/2 (q' Kqq q + q'' Mqq q'), weighted.
-            q[1 + i][1 + j] = 0.5 * weights.kq * model.kqq[i][j];
-            q[2 + N + i][2 + N + j] = 0.5 * weights.kq * model.mqq[i][j];
-        }
-    }
-    // A small weight keeps the integral's pole off the unit circle when ki = 0.
-    q[nx][nx] = (weights.ki * weights.ki).max(1e-9);
-    let mut g = ZERO;
-    for i in 0..na {
-        for j in 0..na {
-            g[i][j] = ba[i] * ba[j]; // R = 1 (N m)^2
-        }
-    }
-    let x = dare(&aa, &g, &q, na).ok_or(LqgError::Numerics)?;
-    // K = (R + B'XB)^-1 B'XA
-    let xb: [f64; D] = core::array::from_fn(|i| (0..na).map(|j| x[i][j] * ba[j]).sum());
-    let bxb: f64 = (0..na).map(|i| ba[i] * xb[i]).sum();
-    let kfull: [f64; D] =
-        core::array::from_fn(|j| (0..na).map(|i| xb[i] * aa[i][j]).sum::<f64>() / (1.0 + bxb));
-
-    // Kalman filter: process noise through the input (sigma^2 b b') and a floor on every
-    // state; measurement noise of the sensors.
+    let kfull = regulator(model, &ad, &bd, weights, ts_s)?;
+    let (pct, sinv) = kalman(model, &ad, &bd, weights, noise)?;
     let e = &model.root_strain_coef;
-    let mut crow = [[0.0; D]; 2];
-    crow[0][0] = 1.0;
-    crow[1][1..=N].copy_from_slice(&e[..N]);
-    let vinv = [
-        1.0 / (noise.theta_rad * noise.theta_rad),
-        1.0 / (noise.strain * noise.strain),
-    ];
-    let mut w = ZERO;
-    let s2 = weights.sigma_nm * weights.sigma_nm;
-    for i in 0..nx {
-        for j in 0..nx {
-            w[i][j] = s2 * bd[i] * bd[j];
-        }
-        w[i][i] += 1e-6 * s2 * bd[i] * bd[i] + 1e-18;
-    }
-    let mut gk = ZERO;
-    for i in 0..nx {
-        for j in 0..nx {
-            gk[i][j] = (0..2).map(|r| crow[r][i] * vinv[r] * crow[r][j]).sum();
-        }
-    }
-    let p = dare(&transpose(&ad, nx), &gk, &w, nx).ok_or(LqgError::Numerics)?;
-    // L = P C' (C P C' + V)^-1, the current-estimate gain.
-    let pct: [[f64; 2]; D] = core::array::from_fn(|i| {
-        core::array::from_fn(|r| (0..nx).map(|j| p[i][j] * crow[r][j]).sum())
-    });
-    let mut s = [[0.0; 2]; 2];
-    for (r1, row) in s.iter_mut().enumerate() {
-        for (r2, v) in row.iter_mut().enumerate() {
-            *v = (0..nx).map(|i| crow[r1][i] * pct[i][r2]).sum::<f64>();
-        }
-        row[r1] += 1.0 / vinv[r1];
-    }
-    let det = s[0][0] * s[1][1] - s[0][1] * s[1][0];
-    if !(det.is_finite() && det != 0.0) {
-        return Err(LqgError::Numerics);
-    }
-    let sinv = [
-        [s[1][1] / det, -s[0][1] / det],
-        [-s[1][0] / det, s[0][0] / det],
-    ];
 
     let mut out = LqgDesign {
         ki: kfull[nx] as f32,
@@ -592,6 +515,129 @@ pub fn design<const N: usize>(
     for i in 0..N {
         out.strain_coef[i] = e[i] as f32;
     }
+    reference_beam(model, &minv, ts_s, &mut out);
+    let finite = out
+        .k
+        .iter()
+        .chain(out.l.iter().flatten())
+        .all(|v| v.is_finite());
+    if !finite || !out.ki.is_finite() {
+        return Err(LqgError::Numerics);
+    }
+    Ok(out)
+}
+
+/// The state feedback on the sampled model `(ad, bd)` augmented with the integral of the hub
+/// angle: `K = (R + B'XB)^-1 B'XA` from the regulator's Riccati equation, in the model's
+/// layout, the integral's gain last.
+fn regulator<const N: usize>(
+    model: &ModalModel<N>,
+    ad: &Mat,
+    bd: &[f64; D],
+    weights: &LqgWeights,
+    ts_s: f64,
+) -> Result<[f64; D], LqgError> {
+    let nx = 2 + 2 * N;
+    // Regulator on [x; z], z the integral of the hub angle error: z+ = z + ts theta.
+    let na = nx + 1;
+    let mut aa = *ad;
+    aa[nx][nx] = 1.0;
+    aa[nx][0] = ts_s;
+    let mut ba = *bd;
+    ba[nx] = 0.0;
+    let mut q = ZERO;
+    q[0][0] = weights.kp * weights.kp;
+    q[1 + N][1 + N] = weights.kd * weights.kd;
+    for i in 0..N {
+        for j in 0..N {
+            // The vibration energy 1/2 (q' Kqq q + q'' Mqq q'), weighted.
+            q[1 + i][1 + j] = 0.5 * weights.kq * model.kqq[i][j];
+            q[2 + N + i][2 + N + j] = 0.5 * weights.kq * model.mqq[i][j];
+        }
+    }
+    // A small weight keeps the integral's pole off the unit circle when ki = 0.
+    q[nx][nx] = (weights.ki * weights.ki).max(1e-9);
+    let mut g = ZERO;
+    for i in 0..na {
+        for j in 0..na {
+            g[i][j] = ba[i] * ba[j]; // R = 1 (N m)^2
+        }
+    }
+    let x = dare(&aa, &g, &q, na).ok_or(LqgError::Numerics)?;
+    // K = (R + B'XB)^-1 B'XA
+    let xb: [f64; D] = core::array::from_fn(|i| (0..na).map(|j| x[i][j] * ba[j]).sum());
+    let bxb: f64 = (0..na).map(|i| ba[i] * xb[i]).sum();
+    let kfull: [f64; D] =
+        core::array::from_fn(|j| (0..na).map(|i| xb[i] * aa[i][j]).sum::<f64>() / (1.0 + bxb));
+    Ok(kfull)
+}
+
+/// The current-estimate Kalman gain's two factors, `P C'` and `(C P C' + V)^-1`, for the
+/// sampled model `(ad, bd)` measured by the encoder and the root gauge with `noise`.
+#[allow(clippy::type_complexity)]
+fn kalman<const N: usize>(
+    model: &ModalModel<N>,
+    ad: &Mat,
+    bd: &[f64; D],
+    weights: &LqgWeights,
+    noise: &SensorNoise,
+) -> Result<([[f64; 2]; D], [[f64; 2]; 2]), LqgError> {
+    let nx = 2 + 2 * N;
+    // Kalman filter: process noise through the input (sigma^2 b b') and a floor on every
+    // state; measurement noise of the sensors.
+    let e = &model.root_strain_coef;
+    let mut crow = [[0.0; D]; 2];
+    crow[0][0] = 1.0;
+    crow[1][1..=N].copy_from_slice(&e[..N]);
+    let vinv = [
+        1.0 / (noise.theta_rad * noise.theta_rad),
+        1.0 / (noise.strain * noise.strain),
+    ];
+    let mut w = ZERO;
+    let s2 = weights.sigma_nm * weights.sigma_nm;
+    for i in 0..nx {
+        for j in 0..nx {
+            w[i][j] = s2 * bd[i] * bd[j];
+        }
+        w[i][i] += 1e-6 * s2 * bd[i] * bd[i] + 1e-18;
+    }
+    let mut gk = ZERO;
+    for i in 0..nx {
+        for j in 0..nx {
+            gk[i][j] = (0..2).map(|r| crow[r][i] * vinv[r] * crow[r][j]).sum();
+        }
+    }
+    let p = dare(&transpose(ad, nx), &gk, &w, nx).ok_or(LqgError::Numerics)?;
+    // L = P C' (C P C' + V)^-1, the current-estimate gain.
+    let pct: [[f64; 2]; D] = core::array::from_fn(|i| {
+        core::array::from_fn(|r| (0..nx).map(|j| p[i][j] * crow[r][j]).sum())
+    });
+    let mut s = [[0.0; 2]; 2];
+    for (r1, row) in s.iter_mut().enumerate() {
+        for (r2, v) in row.iter_mut().enumerate() {
+            *v = (0..nx).map(|i| crow[r1][i] * pct[i][r2]).sum::<f64>();
+        }
+        row[r1] += 1.0 / vinv[r1];
+    }
+    let det = s[0][0] * s[1][1] - s[0][1] * s[1][0];
+    if !(det.is_finite() && det != 0.0) {
+        return Err(LqgError::Numerics);
+    }
+    let sinv = [
+        [s[1][1] / det, -s[0][1] / det],
+        [-s[1][0] / det, s[0][0] / det],
+    ];
+    Ok((pct, sinv))
+}
+
+/// The reference beam (the beam driven by the reference's hub acceleration), sampled, and the
+/// feedforward's rows, into `out`.
+fn reference_beam<const N: usize>(
+    model: &ModalModel<N>,
+    minv: &Mat,
+    ts_s: f64,
+    out: &mut LqgDesign,
+) {
     // The reference beam, sampled by Van Loan as above: z = [q; q'], z' = [[0, I], [-Mqq^-1
     // Kqq, -Mqq^-1 Cq]] z + [0; -Mqq^-1 h] a.
     let mi = &model.mqq_inv;
@@ -642,15 +688,6 @@ pub fn design<const N: usize>(
         out.ff_q[j] = -(0..N).map(|l| hm[l] * model.kqq[l][j]).sum::<f64>() as f32;
         out.ff_dq[j] = -(0..N).map(|l| hm[l] * model.cq[l][j]).sum::<f64>() as f32;
     }
-    let finite = out
-        .k
-        .iter()
-        .chain(out.l.iter().flatten())
-        .all(|v| v.is_finite());
-    if !finite || !out.ki.is_finite() {
-        return Err(LqgError::Numerics);
-    }
-    Ok(out)
 }
 
 #[cfg(test)]

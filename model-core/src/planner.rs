@@ -221,9 +221,6 @@ pub fn plan_move(
 /// `time_s` is `None`) or none does: then the segments share `time_s` (or the shortest time
 /// the limits allow) in proportion to each one's shortest rest-to-rest time.
 ///
-/// About 155 lines, kept whole: the checks, the timing, the spline and its shaping run in
-/// order on the drive with no allocation, and each step's refusal names what the previous
-/// ones found.
 pub fn plan_through(
     from: f32,
     waypoints: &[Waypoint],
@@ -231,51 +228,7 @@ pub fn plan_through(
     shaper: &Shaper,
     limits: &Limits,
 ) -> Result<Plan, PlanError> {
-    limits.check()?;
-    if waypoints.is_empty() {
-        return Err(PlanError::NoWaypoints);
-    }
-    if waypoints.len() > MAX_WAYPOINTS {
-        return Err(PlanError::TooManyWaypoints { max: MAX_WAYPOINTS });
-    }
-    let times_finite = waypoints.iter().all(|w| w.at_s.is_none_or(f32::is_finite))
-        && time_s.is_none_or(f32::is_finite);
-    if !from.is_finite() || waypoints.iter().any(|w| !w.rad.is_finite()) || !times_finite {
-        return Err(PlanError::NonFinite);
-    }
-    // No move longer than MAX_MOVE_S: a given time or the last waypoint's time here, the
-    // shortest time where it is found.
-    let last_at = waypoints.last().and_then(|w| w.at_s);
-    if time_s.or(last_at).is_some_and(|t| t > MAX_MOVE_S) {
-        return Err(PlanError::TooLong { max_s: MAX_MOVE_S });
-    }
-    for w in waypoints {
-        let rad = w.rad;
-        if rad < limits.min_rad || rad > limits.max_rad {
-            return Err(PlanError::OutOfRange {
-                rad,
-                min_rad: limits.min_rad,
-                max_rad: limits.max_rad,
-            });
-        }
-    }
-    // A hub outside the range (it coasted there with the torque off) may come back: the
-    // reference may then pass between the start and the range, never further out. (The
-    // bound on the reference's peaks is conservative by up to 1.8e-4 of the move's length:
-    // a hundredth of the way back beyond the start covers it.)
-    let limits = &Limits {
-        min_rad: if from < limits.min_rad {
-            from - 0.01 * (limits.min_rad - from)
-        } else {
-            limits.min_rad
-        },
-        max_rad: if from > limits.max_rad {
-            from + 0.01 * (from - limits.max_rad)
-        } else {
-            limits.max_rad
-        },
-        ..*limits
-    };
+    let limits = &checked(from, waypoints, time_s, limits)?;
     let timed = waypoints.iter().filter(|w| w.at_s.is_some()).count();
     let given = timed == waypoints.len();
     if (timed != 0 && !given) || (given && time_s.is_some()) {
@@ -379,6 +332,61 @@ pub fn plan_through(
     }
     let (needs_s, _) = shortest()?;
     Err(PlanError::TooFast { needs_s })
+}
+
+/// The checks of [`plan_through`]'s arguments, in the order its refusals name them, and the
+/// limits the move is planned within: a hub outside the range (it coasted there with the
+/// torque off) may come back, so the reference may then pass between the start and the
+/// range, never further out.
+fn checked(
+    from: f32,
+    waypoints: &[Waypoint],
+    time_s: Option<f32>,
+    limits: &Limits,
+) -> Result<Limits, PlanError> {
+    limits.check()?;
+    if waypoints.is_empty() {
+        return Err(PlanError::NoWaypoints);
+    }
+    if waypoints.len() > MAX_WAYPOINTS {
+        return Err(PlanError::TooManyWaypoints { max: MAX_WAYPOINTS });
+    }
+    let times_finite = waypoints.iter().all(|w| w.at_s.is_none_or(f32::is_finite))
+        && time_s.is_none_or(f32::is_finite);
+    if !from.is_finite() || waypoints.iter().any(|w| !w.rad.is_finite()) || !times_finite {
+        return Err(PlanError::NonFinite);
+    }
+    // No move longer than MAX_MOVE_S: a given time or the last waypoint's time here, the
+    // shortest time where it is found.
+    let last_at = waypoints.last().and_then(|w| w.at_s);
+    if time_s.or(last_at).is_some_and(|t| t > MAX_MOVE_S) {
+        return Err(PlanError::TooLong { max_s: MAX_MOVE_S });
+    }
+    for w in waypoints {
+        let rad = w.rad;
+        if rad < limits.min_rad || rad > limits.max_rad {
+            return Err(PlanError::OutOfRange {
+                rad,
+                min_rad: limits.min_rad,
+                max_rad: limits.max_rad,
+            });
+        }
+    }
+    // (The bound on the reference's peaks is conservative by up to 1.8e-4 of the move's
+    // length: a hundredth of the way back beyond the start covers it.)
+    Ok(Limits {
+        min_rad: if from < limits.min_rad {
+            from - 0.01 * (limits.min_rad - from)
+        } else {
+            limits.min_rad
+        },
+        max_rad: if from > limits.max_rad {
+            from + 0.01 * (from - limits.max_rad)
+        } else {
+            limits.max_rad
+        },
+        ..*limits
+    })
 }
 
 /// The shortest rest-to-rest quintic over `distance` within the torque and speed limits, s

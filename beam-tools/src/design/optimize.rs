@@ -21,44 +21,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-/// One searched gain: its name, bounds, and whether it is searched on a log scale.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Param {
-    /// Gain name (`kp`, `kd`, `w`, `a`, `beta`, `c`).
-    pub name: &'static str,
-    /// Lower bound.
-    pub lo: f64,
-    /// Upper bound.
-    pub hi: f64,
-    /// Search log(x) (positive gains) rather than x.
-    pub log: bool,
-}
-
-impl Param {
-    /// The unit-cube coordinate of gain `x` (clamped to the bounds).
-    pub fn unit_of(&self, x: f64) -> f64 {
-        let u = if self.log {
-            (x.max(f64::MIN_POSITIVE).ln() - self.lo.ln()) / (self.hi.ln() - self.lo.ln())
-        } else {
-            (x - self.lo) / (self.hi - self.lo)
-        };
-        if u.is_finite() {
-            u.clamp(0.0, 1.0)
-        } else {
-            0.5
-        }
-    }
-
-    /// The gain at unit-cube coordinate `u`.
-    pub fn gain_at(&self, u: f64) -> f64 {
-        let u = u.clamp(0.0, 1.0);
-        if self.log {
-            (self.lo.ln() + u * (self.hi.ln() - self.lo.ln())).exp()
-        } else {
-            self.lo + u * (self.hi - self.lo)
-        }
-    }
-}
+pub use crate::fit::{latin_hypercube, Param};
 
 /// Bounds of the strain blend c on `model`: where the blended output keeps its control
 /// direction, `1 - c gamma >= 0.25`, and within +-2000.
@@ -625,27 +588,6 @@ pub fn differential_evolution<E: Send>(
         }
     }
     pop
-}
-
-/// `samples` points of a Latin hypercube in the unit cube of `dims` dimensions: one point in
-/// each of `samples` equal strata of every coordinate, strata paired at random (seeded).
-pub fn latin_hypercube(samples: usize, dims: usize, seed: u64) -> Vec<Vec<f64>> {
-    let mut rng = StdRng::seed_from_u64(seed);
-    let columns: Vec<Vec<f64>> = (0..dims)
-        .map(|_| {
-            let mut strata: Vec<usize> = (0..samples).collect();
-            for i in (1..strata.len()).rev() {
-                strata.swap(i, rng.gen_range(0..=i));
-            }
-            strata
-                .into_iter()
-                .map(|s| (s as f64 + rng.gen::<f64>()) / samples as f64)
-                .collect()
-        })
-        .collect();
-    (0..samples)
-        .map(|i| columns.iter().map(|c| c[i]).collect())
-        .collect()
 }
 
 /// Designs gains for `model` per `spec`. `progress(done, total)` is called as evaluations

@@ -12,13 +12,13 @@
 //! (in parallel), then runs COBYLA from the best sample: with only the hub angle, Jm and the
 //! beam's inertia trade against each other and a purely local search stalls.
 
-use crate::design::optimize::{latin_hypercube, Param};
+use crate::fit::minimise;
+use crate::fit::Param;
 pub use beam_log::{
     lagged, read_log, read_log_with, BeamSensor, Columns, Log, LogError, LogProblem,
 };
 use beam_sim::plant::{Plant, State};
 use model_core::{Beam, BeamParams, EncoderSpec, ModalModel};
-use rayon::prelude::*;
 
 /// Scale of the hub-angle error: one encoder count, rad.
 fn count_rad() -> f64 {
@@ -28,15 +28,9 @@ fn count_rad() -> f64 {
 /// Scale of the strain error: one microstrain.
 const STRAIN_SCALE: f64 = 1e-6;
 
-/// Latin-hypercube samples per step before the local search.
-const SAMPLES: usize = 96;
-
 /// COBYLA evaluations per local search: the Jm/density valley is long and narrow, and a few
 /// hundred evaluations stop well short of its floor (measured: Jm 12 % off at 300, 0.2 % at 3000).
 pub const DEFAULT_EVALS: usize = 2000;
-
-/// Local searches per step (besides the one from the current values).
-const LOCAL_STARTS: usize = 5;
 
 fn start_of(p: &BeamParams, which: &[Fitted]) -> Vec<f64> {
     which
@@ -587,54 +581,6 @@ impl AtBound {
 
 /// The local searches' tolerance on the point (relative) where nothing polishes their result.
 pub(crate) const SEARCH_XTOL: f64 = 1e-6;
-
-/// Minimises `f` over the unit cube in `dims` dimensions: a Latin hypercube of
-/// [`SAMPLES`] points (from `seed`), evaluated in parallel, then COBYLA with `evals`
-/// evaluations from `start` and the [`LOCAL_STARTS`] best samples (the costs here have
-/// several basins), each until its step is below `xtol` relative to the point; returns the
-/// best point found (`start` if none is better).
-pub(crate) fn minimise(
-    dims: usize,
-    start: Vec<f64>,
-    evals: usize,
-    seed: u64,
-    xtol: f64,
-    f: &(dyn Fn(&[f64]) -> f64 + Sync),
-) -> Vec<f64> {
-    let mut scored: Vec<(f64, Vec<f64>)> = latin_hypercube(SAMPLES, dims, seed)
-        .into_par_iter()
-        .map(|u| (f(&u), u))
-        .collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut starts: Vec<Vec<f64>> = vec![start.clone()];
-    starts.extend(scored.into_iter().take(LOCAL_STARTS).map(|(_, u)| u));
-    let bounds = vec![(0.0, 1.0); dims];
-    starts
-        .par_iter()
-        .map(|u0| {
-            let cons: [&dyn cobyla::Func<()>; 0] = [];
-            let u = match cobyla::minimize(
-                |u: &[f64], _: &mut ()| f(u),
-                u0,
-                &bounds,
-                &cons,
-                (),
-                evals,
-                cobyla::RhoBeg::All(0.1),
-                Some(cobyla::StopTols {
-                    xtol_rel: xtol,
-                    ..Default::default()
-                }),
-            ) {
-                Ok((_, u, _)) | Err((_, u, _)) => u,
-            };
-            (f(&u), u)
-        })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map_or(start, |(_, u)| u)
-}
 
 /// Fits the `which` parameters of `p`, within their ranges, to minimise the step's error.
 fn fit_step<const N: usize>(

@@ -6,3 +6,4 @@ pub mod lsq;
 pub mod prescribed;
 pub mod replay;
 pub mod split;
+pub mod warnings;

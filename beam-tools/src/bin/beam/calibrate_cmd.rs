@@ -3,12 +3,12 @@
 use crate::PlantArgs;
 use anyhow::{bail, Context};
 use beam_tools::identify::calibrate::{
-    calibrate_many, find_windows, read_log_with, split_moves, AtBound, BeamSensor, CalibrateError,
-    Columns, Experiment, Log, LogFit, StepReport, Uncertainty, Windows, DEFAULT_EVALS,
-    REST_BEFORE_S,
+    calibrate_many, find_windows, read_log_with, split_moves, BeamSensor, CalibrateError, Columns,
+    Experiment, Log, LogFit, StepReport, Windows, DEFAULT_EVALS, REST_BEFORE_S,
 };
 use beam_tools::identify::replay::{sensor_lag, STRAIN_DELAY_FLOOR_S};
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
+use beam_tools::identify::warnings::{warnings, Calibration, LogAlone, Spread, Warning};
 use beam_tools::io::params_file::Sensors;
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
@@ -157,25 +157,6 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What a calibration found: the parameters, and how well they fit and are known.
-struct Found {
-    params: BeamParams,
-    /// The paper's steps (empty for the split method).
-    steps: Vec<StepReport>,
-    /// How the model fits each log.
-    per_log: Vec<LogFit>,
-    /// The split method's report.
-    split: Option<SplitReport>,
-    /// The intervals and the parameters that trade against each other (`None`: a parameter
-    /// has no effect on the logs).
-    spread: Option<Spread>,
-    /// With several logs, each log calibrated alone by the same method: its parameters and
-    /// their intervals, or why it could not be.
-    each_log: Vec<Result<Vec<Uncertainty>, String>>,
-    /// What reading and cutting the logs found (warnings).
-    notes: Vec<String>,
-}
-
 /// The arguments that must agree, checked before any log is read.
 fn check(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.evals == 0 || a.evals > 1_000_000 {
@@ -237,7 +218,7 @@ struct Read {
     /// Each move's name.
     names: Vec<String>,
     /// What reading found, for the warnings.
-    notes: Vec<String>,
+    notes: Vec<Warning>,
     /// Each log's strain delay taken out, s, and its sample period.
     delays: Vec<(f64, f64)>,
 }
@@ -261,9 +242,7 @@ fn experiments(
                 .with_context(|| format!("{file} cut to --from/--to"))?;
         }
         if log.drop_unmeasured_mid() {
-            notes.push(format!(
-                "{file}: the mid-span strain reads zero throughout; taken as not measured"
-            ));
+            notes.push(Warning::UnmeasuredMid { file: file.clone() });
         }
         // On the beam the log was made with: its own tip mass, if it has one.
         let beam = BeamParams {
@@ -274,14 +253,16 @@ fn experiments(
             Some(lags) if lags[i] < STRAIN_DELAY_FLOOR_S => (0.0, None),
             Some(lags) => (
                 lags[i],
-                Some(format!(
-                    "{file}: the {} lags the model's (on the logged hub) by {:.3} s, fitted with the beam (a sensor amplifier's filter, or a sample clock behind the encoder's); its readings are taken {:.3} s later (give --strain-delay 0 to keep them as logged)",
-                    log.sensor.name(),
-                    lags[i],
-                    lags[i]
-                )),
+                Some(Warning::LagFitted {
+                    file: file.clone(),
+                    sensor: log.sensor.name(),
+                    lag_s: lags[i],
+                }),
             ),
-            None => strain_delay_of(a, &beam, &log, &file),
+            None => {
+                let (delay, note) = strain_delay_of(a, &beam, &log, &file);
+                (delay, note.map(Warning::Note))
+            }
         };
         notes.extend(note);
         delays.push((delay, log.t[1] - log.t[0]));
@@ -312,10 +293,11 @@ fn experiments(
             .with_context(|| name.clone())?;
             // The rest before the move as the windows see it (the cut's, or the log's start).
             if windows.start_s < REST_BEFORE_S - 1e-9 {
-                notes.push(format!(
-                    "{name}: the move starts {:.3} s into the log, with less than {REST_BEFORE_S} s of rest before it; the split takes the beam as at rest there, and a log cut this close to the move can bias the beam's fit (start the log earlier)",
-                    windows.start_s
-                ));
+                notes.push(Warning::ShortRest {
+                    name: name.clone(),
+                    start_s: windows.start_s,
+                    rest_s: REST_BEFORE_S,
+                });
             }
             exps.push(Experiment {
                 tip_mass_kg,
@@ -345,21 +327,20 @@ fn strain_delay_of(
 
 /// With several logs, each log calibrated alone as well (its parameters and intervals, or
 /// why not), so that logs that disagree are seen; with one, none.
-fn each_log_alone(
-    a: &CalibrateArgs,
-    exps: &[Experiment],
-    guess: &BeamParams,
-) -> Vec<Result<Vec<Uncertainty>, String>> {
+fn each_log_alone(a: &CalibrateArgs, exps: &[Experiment], guess: &BeamParams) -> Vec<LogAlone> {
     if exps.len() < 2 {
         return vec![];
     }
     exps.iter()
-        .map(|e| {
-            let alone = identify_joint(a, std::slice::from_ref(e), guess, true)
-                .map_err(|e| format!("{e:#}"))?;
-            let (errs, _) = alone.spread.ok_or("a parameter has no effect on it")?;
-            Ok(errs)
-        })
+        .map(
+            |e| match identify_joint(a, std::slice::from_ref(e), guess, true) {
+                Err(e) => LogAlone::Failed(format!("{e:#}")),
+                Ok(alone) => match alone.spread {
+                    Some((errs, _)) => LogAlone::Fitted(errs),
+                    None => LogAlone::Failed("a parameter has no effect on it".into()),
+                },
+            },
+        )
         .collect()
 }
 
@@ -369,12 +350,12 @@ fn identify_joint(
     exps: &[Experiment],
     guess: &BeamParams,
     alone: bool,
-) -> anyhow::Result<Found> {
+) -> anyhow::Result<Calibration> {
     if a.method != "split" {
         let (params, steps, per_log) =
             with_modes!(a.plant.modes, calibrate_many(exps, guess, a.evals))?;
         let spread = with_modes!(a.plant.modes, uncertainty_n(&params, exps));
-        return Ok(Found {
+        return Ok(Calibration {
             params,
             steps,
             per_log,
@@ -418,14 +399,16 @@ fn identify_joint(
     let notes = split
         .unplaced_offset
         .filter(|_| !options.fit_offset)
-        .map(|u| format!(
-            "the torque balance left {:.3e} N m that it could not place in either direction of motion (the balance's residual {:.2e} N m RMS, {:.2e} with it): the torque's zero is off, or Coulomb friction differs between the directions (by twice that); a torque offset is fitted ({:.3e} N m)",
-            u.offset_nm, u.rms_err_without_nm, u.rms_err_with_nm, sensors.torque_offset_nm
-        ))
+        .map(|u| Warning::TorqueUnplaced {
+            offset_nm: u.offset_nm,
+            rms_without_nm: u.rms_err_without_nm,
+            rms_with_nm: u.rms_err_with_nm,
+            fitted_nm: sensors.torque_offset_nm,
+        })
         .into_iter()
         .collect();
     let per_log = with_modes!(a.plant.modes, log_fits(&params, &sensors, exps))?;
-    Ok(Found {
+    Ok(Calibration {
         params,
         steps: vec![],
         per_log,
@@ -439,7 +422,7 @@ fn identify_joint(
 /// `--out` (the parameter file) and `--plot` (one figure per log).
 fn write_files(
     a: &CalibrateArgs,
-    found: &Found,
+    found: &Calibration,
     exps: &[Experiment],
     names: &[String],
 ) -> anyhow::Result<()> {
@@ -468,7 +451,7 @@ fn write_files(
 
 fn print_json(
     a: &CalibrateArgs,
-    found: &Found,
+    found: &Calibration,
     exps: &[Experiment],
     names: &[String],
     guess: &BeamParams,
@@ -501,7 +484,10 @@ fn print_json(
         .collect();
     let spread = found.spread.as_ref();
     // Warnings go to stderr as well, so a script that keeps only stdout still shows them.
-    let warnings = warnings(found, names);
+    let warnings: Vec<String> = warnings(found, names)
+        .iter()
+        .map(Warning::to_string)
+        .collect();
     for w in &warnings {
         eprintln!("warning: {w}");
     }
@@ -517,22 +503,19 @@ fn print_json(
 
 /// Each log calibrated alone (empty with one log): its parameters with their intervals, or
 /// the error.
-fn each_log_json(
-    each: &[Result<Vec<Uncertainty>, String>],
-    names: &[String],
-) -> Vec<serde_json::Value> {
+fn each_log_json(each: &[LogAlone], names: &[String]) -> Vec<serde_json::Value> {
     each.iter()
         .zip(names)
         .map(|(r, name)| match r {
-            Ok(errs) => json!({"log": name, "uncertainty": errs}),
-            Err(e) => json!({"log": name, "error": e}),
+            LogAlone::Fitted(errs) => json!({"log": name, "uncertainty": errs}),
+            LogAlone::Failed(e) => json!({"log": name, "error": e}),
         })
         .collect()
 }
 
 fn print_text(
     a: &CalibrateArgs,
-    found: &Found,
+    found: &Calibration,
     exps: &[Experiment],
     names: &[String],
     (fm, gm): (serde_json::Value, serde_json::Value),
@@ -566,14 +549,14 @@ fn print_text(
     print_spread(found, names);
     for (r, name) in found.each_log.iter().zip(names) {
         match r {
-            Ok(errs) => {
+            LogAlone::Fitted(errs) => {
                 let parts: Vec<String> = errs
                     .iter()
                     .map(|u| format!("{} {:.4e} +- {:.1e}", u.name, u.value, u.std_err))
                     .collect();
                 println!("  {name} alone: {}", parts.join(", "));
             }
-            Err(e) => println!("  {name} alone: not calibrated ({e})"),
+            LogAlone::Failed(e) => println!("  {name} alone: not calibrated ({e})"),
         }
     }
     println!("  identified: {fm}");
@@ -653,7 +636,7 @@ fn print_split(s: &SplitReport) {
 }
 
 /// The intervals, and the warnings about parameters the logs do not pin down.
-fn print_spread(found: &Found, names: &[String]) {
+fn print_spread(found: &Calibration, names: &[String]) {
     let split = &found.split;
     if let Some((errs, _)) = &found.spread {
         let parts: Vec<String> = errs
@@ -671,186 +654,6 @@ fn print_spread(found: &Found, names: &[String]) {
     for w in warnings(found, names) {
         println!("  warning: {w}");
     }
-}
-
-/// What a user should know about the result, one sentence each: parameters the logs do not
-/// tell apart or do not pin down, a model that does not explain the torque, and where the
-/// hub's smoothing or the encoder limit a parameter more than the noise. Printed with the
-/// text report, and with `--json` both on stderr and as the JSON's `warnings`.
-fn warnings(found: &Found, names: &[String]) -> Vec<String> {
-    let mut out = found.notes.clone();
-    let split = &found.split;
-    let [lo, hi] = beam_tools::identify::split::WINDOW_FACTORS;
-    let smoothing = format!("{lo:.1} or {hi:.1} times the width");
-    match &found.spread {
-        Some((errs, trades)) => {
-            for t in trades {
-                out.push(format!(
-                    "{} and {} trade against each other (correlation {:.3}); the logs do not tell them apart",
-                    t.a, t.b, t.correlation
-                ));
-            }
-            for u in errs.iter().filter(|u| u.std_err > u.value.abs()) {
-                out.push(format!(
-                    "{}'s interval ({:.1e}) is wider than its value ({:.4e}): the logs do not pin it down",
-                    u.name, u.std_err, u.value
-                ));
-            }
-        }
-        None => out.push("a parameter has no effect on these logs; no uncertainties".into()),
-    }
-    let bounds = found
-        .steps
-        .iter()
-        .flat_map(|s| s.at_bound.iter().map(move |b| (Some(s.name), b)))
-        .chain(
-            split
-                .iter()
-                .flat_map(|s| s.at_bound.iter().map(|b| (None, b))),
-        );
-    let std_err = |name: &str| {
-        found
-            .spread
-            .as_ref()
-            .and_then(|(errs, _)| errs.iter().find(|u| u.name == name))
-            .map_or(0.0, |u| u.std_err)
-    };
-    for (step, b) in bounds {
-        // Friction held at zero from a value within its noise of zero is no news.
-        let negative_noise =
-            b.bound == 0.0 && b.value < 0.0 && -b.value <= DISAGREE_SIGMAS * std_err(b.name);
-        if !negative_noise {
-            out.push(at_bound_warning(step, b));
-        }
-    }
-    if let Some((errs, _)) = &found.spread {
-        out.extend(steps_disagree(&found.steps, errs));
-    }
-    out.extend(logs_disagree(&found.each_log, names));
-    if let Some(s) = split.as_ref().filter(|s| s.replay_drifts()) {
-        out.push(format!(
-            "the found model, driven open loop by the logged torque, drifts {:.1} deg RMS from the logged angle, {:.0} % of the move: it does not explain the torque; check the starting parameters (each log's tip mass, the gauge's position) against the rig",
-            s.replay_rms_theta_err_rad.to_degrees(),
-            100.0 * s.replay_rms_theta_err_rad / s.move_span_rad
-        ));
-    }
-    for w in split.iter().flat_map(|s| &s.window_shift) {
-        if w.shift > beam_tools::identify::split::WINDOW_WARNING * w.noise {
-            out.push(format!(
-                "{} moves {:.1e} when the prescribed hub is smoothed over {smoothing}, {:.0} times its noise: how the hub's fast motion is modelled limits it on these logs more than their noise (its interval counts the shift)",
-                w.name,
-                w.shift,
-                w.shift / w.noise
-            ));
-        }
-        if w.encoder > beam_tools::identify::split::WINDOW_WARNING * w.noise {
-            out.push(format!(
-                "{} moves {:.1e} RMS when the logged angle is quantised again at other phases of its encoder's step, {:.0} times its noise: the encoder's resolution limits it on these logs more than their noise (its interval counts the shift)",
-                w.name,
-                w.encoder,
-                w.encoder / w.noise
-            ));
-        }
-    }
-    out
-}
-
-/// A parameter on a bound of its search: its value is the search's, not the logs'.
-fn at_bound_warning(step: Option<&str>, b: &AtBound) -> String {
-    let within = step.map_or(String::new(), |s| format!(" in the step \"{s}\""));
-    if b.value < b.bound && b.bound == 0.0 {
-        format!(
-            "{} came out negative ({:.3e}){within} and is held at zero: the logs ask for less than none; check the torque's offset (--torque-offset) and the starting parameters",
-            b.name, b.value
-        )
-    } else if (b.side == "upper" && b.value > b.bound * (1.0 + 1e-6))
-        || (b.side == "lower" && b.value < b.bound - 1e-6 * b.bound.abs())
-    {
-        format!(
-            "{} ended beyond the {} bound of its search{within} ({:.4e}; the search stopped at {:.4e}, the local polish went on): the starting parameters are far from what the logs say; calibrate again from the result",
-            b.name, b.side, b.value, b.bound
-        )
-    } else {
-        format!(
-            "{} ended on the {} bound of its search{within} ({:.4e}): the logs push it further, so the value is the bound's; check the starting parameters",
-            b.name, b.side, b.value
-        )
-    }
-}
-
-/// How many combined one-sigma intervals apart two results must be to be said to disagree.
-const DISAGREE_SIGMAS: f64 = 2.0;
-
-/// The paper's steps that fitted a parameter to a value further from the result than
-/// [`DISAGREE_SIGMAS`] times its interval: the steps see different parts of the logs, and
-/// the interval (the noise's, near the result) does not count that.
-fn steps_disagree(steps: &[StepReport], errs: &[Uncertainty]) -> Vec<String> {
-    let mut out = vec![];
-    for u in errs.iter().filter(|u| u.std_err > 0.0) {
-        let apart: Vec<String> = steps
-            .iter()
-            .filter_map(|s| {
-                let (_, v) = s.fitted.iter().find(|(n, _)| *n == u.name)?;
-                let sigmas = (v - u.value).abs() / u.std_err;
-                (sigmas > DISAGREE_SIGMAS)
-                    .then(|| format!("\"{}\" {v:.4e} ({sigmas:.0} sigma)", s.name))
-            })
-            .collect();
-        if !apart.is_empty() {
-            out.push(format!(
-                "the steps disagree on {}: {:.4e} +- {:.1e} at the end, but {}; its interval is the noise's alone and understates how well it is known",
-                u.name,
-                u.value,
-                u.std_err,
-                apart.join(", ")
-            ));
-        }
-    }
-    out
-}
-
-/// Logs that, each calibrated alone, give a parameter more than [`DISAGREE_SIGMAS`] of
-/// their combined intervals apart (and logs that could not be calibrated alone).
-fn logs_disagree(each: &[Result<Vec<Uncertainty>, String>], names: &[String]) -> Vec<String> {
-    let mut out = vec![];
-    for (r, name) in each.iter().zip(names) {
-        if let Err(e) = r {
-            out.push(format!("{name} alone could not be calibrated: {e}"));
-        }
-    }
-    let fits: Vec<(&Vec<Uncertainty>, &String)> = each
-        .iter()
-        .zip(names)
-        .filter_map(|(r, n)| r.as_ref().ok().map(|u| (u, n)))
-        .collect();
-    let Some((first, _)) = fits.first() else {
-        return out;
-    };
-    for param in first.iter().map(|u| u.name) {
-        let of = |u: &Vec<Uncertainty>| u.iter().find(|u| u.name == param).cloned();
-        let mut pairs = vec![];
-        for (i, (ui, ni)) in fits.iter().enumerate() {
-            for (uj, nj) in &fits[i + 1..] {
-                let (Some(a), Some(b)) = (of(ui), of(uj)) else {
-                    continue;
-                };
-                let sigmas = (a.value - b.value).abs() / a.std_err.hypot(b.std_err);
-                if sigmas > DISAGREE_SIGMAS {
-                    pairs.push(format!(
-                        "{ni} {:.4e} +- {:.1e} against {nj} {:.4e} +- {:.1e} ({sigmas:.1} sigma)",
-                        a.value, a.std_err, b.value, b.std_err
-                    ));
-                }
-            }
-        }
-        if !pairs.is_empty() {
-            out.push(format!(
-                "the logs, each calibrated alone, disagree on {param}: {}; the joint result averages moves the model does not fit alike",
-                pairs.join("; ")
-            ));
-        }
-    }
-    out
 }
 
 fn print_step(s: &StepReport) {
@@ -885,11 +688,6 @@ fn summary<const N: usize>(
     };
     Ok((describe(found)?, describe(guess)?))
 }
-
-type Spread = (
-    Vec<beam_tools::identify::calibrate::Uncertainty>,
-    Vec<beam_tools::identify::calibrate::Tradeoff>,
-);
 
 fn uncertainty_n<const N: usize>(p: &BeamParams, exps: &[Experiment]) -> Option<Spread> {
     beam_tools::identify::calibrate::uncertainty::<N>(p, exps)

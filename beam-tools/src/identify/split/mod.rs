@@ -29,10 +29,10 @@
 //! residuals' lag-one autocorrelation counted (fewer independent samples than logged);
 //! step 2's from a moving-block bootstrap of the balance's samples.
 
-use crate::design::optimize::Param;
+use crate::fit::{minimise, Param};
 use crate::identify::calibrate::{
-    lagged, minimise, replay, AtBound, BeamSensor, CalibrateError, Experiment, Log, Tradeoff,
-    Uncertainty, UnphysicalCause,
+    lagged, replay, AtBound, BeamSensor, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
+    UnphysicalCause,
 };
 use crate::identify::lsq::Normal;
 use crate::identify::replay::{
