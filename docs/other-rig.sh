@@ -9,7 +9,8 @@
 set -euo pipefail
 out=${1:-target/other-rig}
 mkdir -p "$out"
-beam() { cargo -q beam "$@"; }
+# `cargo beam`, or the binary $BEAM names (CI gives it the one its tests built).
+beam() { ${BEAM:-cargo -q beam} "$@"; }
 python3 - "$out" <<'PY'
 import sys
 out = sys.argv[1]

@@ -52,7 +52,7 @@ pub enum Command {
         /// Duration of the base move when the waypoints have no times, s.
         time_s: Option<f32>,
     },
-    /// Carry this payload: the gains and shaper are rescheduled from the compiled table.
+    /// Carry this payload: the gains and shaper are rescheduled from the drive's table.
     SetPayload {
         /// Tip mass, kg.
         kg: f32,

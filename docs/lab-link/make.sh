@@ -14,7 +14,8 @@ set -euo pipefail
 dir=docs/lab-link
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-beam() { cargo -q beam "$@"; }
+# `cargo beam`, or the binary $BEAM names (CI gives it the one its tests built).
+beam() { ${BEAM:-cargo -q beam} "$@"; }
 python3 - "$dir" <<'PY'
 import sys
 out = sys.argv[1]

@@ -560,13 +560,14 @@ pub fn load(path: &Path) -> Result<Table, TableError> {
 /// explaining the file.
 pub fn render(table: &Table) -> String {
     let mut out = String::from(
-        "# Gain table compiled into model-core (and so into the firmware) by model-core/build.rs.\n\
-         # [plant]: the beam the gains were designed for; the build computes its modal model\n\
-         # on the host and compiles it in. One [[row]] per controller and payload; rows of a\n\
-         # controller sorted by payload_kg. The drive interpolates gains between neighbouring\n\
-         # payloads and accepts payloads from 0 to the heaviest row. [drive]: the law the\n\
-         # drive runs, its starting payload, and its instruments' scales.\n\
-         # Written by `beam optimize --table`; edit by hand with care: the build validates it.\n",
+        "# Gain table: a drive's configuration. The host tools load it when they run (--table, or\n\
+         # BEAM_GAIN_TABLE); the firmware's build compiles it in (BEAM_GAIN_TABLE=FILE cargo fw).\n\
+         # [plant]: the beam the gains were designed for; its modal model is computed on the host.\n\
+         # One [[row]] per controller and payload; rows of a controller sorted by payload_kg. The\n\
+         # drive interpolates gains between neighbouring payloads and accepts payloads from 0 to\n\
+         # the heaviest row. [drive]: the law the drive runs, its starting payload, and its\n\
+         # instruments' scales (the observer laws are designed on them).\n\
+         # Written by `beam optimize --table`; edit by hand with care: every load validates it.\n",
     );
     out.push('\n');
     out.push_str(&table.plant.render());

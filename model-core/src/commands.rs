@@ -438,7 +438,7 @@ mod tests {
                 panic!("{kg} kg refused")
             };
             // The planner's inertia is the model's Mtt with the payload at the tip: the
-            // compiled plant's beam, its model built here, not read from the compiled plant.
+            // table's plant's beam, its model built here, not read from the table's plant.
             let beam = crate::beam::Beam::try_build(plant.params_with(kg as f64)).unwrap();
             let model = crate::modal::ModalModel::<3>::try_build(&beam).unwrap();
             let rel = (s.limits.inertia_kgm2 as f64 - model.mtt).abs() / model.mtt;

@@ -214,7 +214,7 @@ macro_rules! laws {
             )+
 
             /// Law `kind` with gains `values` in the order of its specs and `settings` (the
-            /// law reads only its own): what the compiled table, the interpolation and the
+            /// law reads only its own): what a gain table, the interpolation and the
             /// tools build laws with.
             pub const fn from_values(kind: LawKind, values: [f32; MAX_GAINS], settings: Settings) -> Law {
                 match kind {

@@ -85,7 +85,7 @@ impl Limits {
 
     /// [`Limits::for_plant`] with the shortest segment `law` asks for on that model: its
     /// [`Law::min_move_periods`] of the first clamped period. (On a modal model: a drive's
-    /// compiled plant does not carry the frequency, and its laws ask for no floor.)
+    /// drive's plant does not carry the frequency, and its laws ask for no floor.)
     pub fn for_law<const N: usize>(model: &ModalModel<N>, law: &Law) -> Self {
         let periods = law.min_move_periods() as f64;
         let hz = model.clamped_hz.first().copied().unwrap_or(0.0);

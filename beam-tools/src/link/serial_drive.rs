@@ -1,4 +1,4 @@
-//! A drive on a serial port: the host's end of `firmware::link` (requests out; replies and
+//! A drive on a serial port: the host's end of `beam_drive::link` (requests out; replies and
 //! telemetry records in), over any byte stream, a `serialport` port on the bench or a
 //! pseudo-terminal in the tests.
 

@@ -62,7 +62,7 @@ pub struct DriveArgs {
         conflicts_with = "script"
     )]
     words: Vec<String>,
-    /// Control law the drive runs (gains and shaper from the compiled table).
+    /// Control law the drive runs (gains and shaper from the gain table).
     #[arg(long, value_parser = named::<LawKind>(), default_value = "pd-ff")]
     controller: LawKind,
     /// Payload the drive (and the beam) starts with, kg.
