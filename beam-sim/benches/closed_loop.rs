@@ -40,8 +40,10 @@ fn controller_step(c: &mut Criterion) {
 
 fn step_of(c: &mut Criterion, name: &str, law: Law) {
     let m = model::<3>();
-    let settings = settings_for(&m, &SimOptions::default().sensors);
-    let law = ControlLaw::try_build(law, &m).unwrap();
+    let sensors = SimOptions::default().sensors;
+    let settings = settings_for(&m, &sensors);
+    // Designed on the instruments the loop reads, as the drive's observer laws are.
+    let law = ControlLaw::try_build(law, sensors.instruments().on(&m)).unwrap();
     let mut ctl = Controller::try_build(settings, law, paper_slew().unwrap()).unwrap();
     ctl.step(&RawMeasurement::default());
     ctl.start_move().unwrap();
