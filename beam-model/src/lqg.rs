@@ -459,8 +459,8 @@ pub fn leading_modes<const N: usize, const M: usize>(
 }
 
 /// Designs the observer and the state feedback for `model` sampled at `ts_s`: the continuous
-/// model sampled, the regulator ([`regulator`]), the Kalman filter ([`kalman`]), both in the
-/// drive's fixed layout, then the reference beam and the feedforward ([`reference_beam`]).
+/// model sampled, the regulator (`regulator`), the Kalman filter (`kalman`), both in the
+/// drive's fixed layout, then the reference beam and the feedforward (`reference_beam`).
 pub fn design<const N: usize>(
     model: &ModalModel<N>,
     weights: &LqgWeights,

@@ -67,10 +67,10 @@ pub fn latin_hypercube(samples: usize, dims: usize, seed: u64) -> Vec<Vec<f64>> 
 }
 
 /// Latin-hypercube samples before [`minimise`]'s local searches.
-const SAMPLES: usize = 96;
+pub const SAMPLES: usize = 96;
 
 /// [`minimise`]'s local searches besides the one from its start.
-const LOCAL_STARTS: usize = 5;
+pub const LOCAL_STARTS: usize = 5;
 
 /// Minimises `f` over the unit cube in `dims` dimensions: a Latin hypercube of
 /// [`SAMPLES`] points (from `seed`), evaluated in parallel, then COBYLA with `evals`

@@ -17,8 +17,16 @@ use std::time::{Duration, Instant};
 
 /// A drive on `port`: bytes to the link, requests to the handler, a tick every millisecond
 /// (the hub held still), records while streaming; until `stop`. It answers the first
-/// `answers` requests and then falls silent (a drive that hangs or a cable pulled).
-fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>, answers: usize) {
+/// `answers` requests and then falls silent (a drive that hangs or a cable pulled), each
+/// reply sent `late` after its request came (a drive slow to answer); with `stray`, a byte of
+/// noise is on the line before the first request.
+fn fake_drive(
+    mut port: TTYPort,
+    stop: Arc<AtomicBool>,
+    answers: usize,
+    late: Duration,
+    stray: bool,
+) {
     let mut answered = 0;
     let table = common::shipped();
     let (mut commander, law) = Commander::try_new(table, LawKind::PdFf, 0.0).unwrap();
@@ -30,10 +38,13 @@ fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>, answers: usize) {
     // A stray byte on the line before the host's first request (noise at power-up): the
     // host's leading delimiter cuts it off, the drive answers it `BadFrame`, and the
     // request still gets its own reply.
-    link.receive_byte(0x42);
+    if stray {
+        link.receive_byte(0x42);
+    }
     let start = Instant::now();
     let mut tick = 0u32;
     let mut buf = [0u8; 256];
+    let mut pending: Vec<(Instant, beam_wire::command::Reply)> = vec![];
     while !stop.load(Ordering::Relaxed) {
         if let Ok(n) = port.read(&mut buf) {
             for &b in &buf[..n] {
@@ -43,9 +54,15 @@ fn fake_drive(mut port: TTYPort, stop: Arc<AtomicBool>, answers: usize) {
         while let Some(request) = link.next_request() {
             if answered < answers {
                 let reply = commander.handle(&mut ctl, &request);
-                link.reply(&reply);
+                pending.push((Instant::now() + late, reply));
                 answered += 1;
             }
+        }
+        while pending
+            .first()
+            .is_some_and(|(due, _)| *due <= Instant::now())
+        {
+            link.reply(&pending.remove(0).1);
         }
         while (tick as u128) < start.elapsed().as_millis() {
             let t = ctl.step(&RawMeasurement::default());
@@ -81,7 +98,7 @@ fn beam_drive_talks_to_a_drive_over_a_tty_and_records_its_stream() {
     let stop = Arc::new(AtomicBool::new(false));
     let drive = {
         let stop = stop.clone();
-        std::thread::spawn(move || fake_drive(master, stop, usize::MAX))
+        std::thread::spawn(move || fake_drive(master, stop, usize::MAX, Duration::ZERO, true))
     };
     let dir = std::env::temp_dir().join(format!("beam-serial-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -150,7 +167,7 @@ fn a_drive_that_falls_silent_mid_script_leaves_what_ran_printed_and_exits_2() {
     let stop = Arc::new(AtomicBool::new(false));
     let drive = {
         let stop = stop.clone();
-        std::thread::spawn(move || fake_drive(master, stop, 2))
+        std::thread::spawn(move || fake_drive(master, stop, 2, Duration::ZERO, true))
     };
     let out = Command::new(env!("CARGO_BIN_EXE_beam"))
         .args([
@@ -183,4 +200,54 @@ fn a_drive_that_falls_silent_mid_script_leaves_what_ran_printed_and_exits_2() {
         stdout.contains("status") && stdout.contains("stream 0"),
         "{stdout}"
     );
+}
+
+#[test]
+fn a_late_reply_to_an_earlier_run_is_never_taken_for_this_runs() {
+    // The drive answers 400 ms after each request. Run A gives up after 200 ms: the drive
+    // carries its move out all the same and replies once A has gone. Run B's move, refused by
+    // the drive (A's move runs, or has faulted on a hub that does not turn), must not print
+    // A's `Moving`.
+    let (master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
+    let path = slave.name().expect("the tty's name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let drive = {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            fake_drive(master, stop, usize::MAX, Duration::from_millis(400), false)
+        })
+    };
+    let run = |timeout_ms: &str, to: &str| {
+        Command::new(env!("CARGO_BIN_EXE_beam"))
+            .args([
+                "drive",
+                "--port",
+                &path,
+                "--reply-timeout-ms",
+                timeout_ms,
+                "move",
+                to,
+            ])
+            .output()
+            .unwrap()
+    };
+    let a = run("200", "10");
+    let b = run("2000", "-10");
+    stop.store(true, Ordering::Relaxed);
+    drive.join().unwrap();
+    drop(slave);
+    let a_err = String::from_utf8_lossy(&a.stderr);
+    assert_eq!(a.status.code(), Some(2), "{a_err}");
+    // A says what the drive may be doing, and how to ask.
+    assert!(
+        a_err.contains("may have received it") && a_err.contains("status"),
+        "{a_err}"
+    );
+    let (b_out, b_err) = (
+        String::from_utf8_lossy(&b.stdout),
+        String::from_utf8_lossy(&b.stderr),
+    );
+    assert!(!b_out.contains("Moving"), "B took A's reply: {b_out}");
+    assert!(b_out.contains("Refused"), "{b_out}");
+    assert_eq!(b.status.code(), Some(1), "{b_out}{b_err}");
 }

@@ -117,8 +117,9 @@ impl Instruments {
     };
 
     /// The noise an observer assumes on these instruments: the encoder's quantisation (step /
-    /// sqrt(12)) and the root gauge's, at least [`ASSUMED_STRAIN_NOISE`] (a bridge
-    /// amplifier's floor, above a fine converter's quantisation).
+    /// sqrt(12)) and the root gauge's, at least
+    /// [`ASSUMED_STRAIN_NOISE`](crate::law::ASSUMED_STRAIN_NOISE) (a bridge amplifier's floor,
+    /// above a fine converter's quantisation).
     pub fn noise(&self) -> beam_model::lqg::SensorNoise {
         let quantum = |step: f64| step / libm::sqrt(12.0);
         beam_model::lqg::SensorNoise {

@@ -23,7 +23,10 @@ pub enum LinkError {
     #[error("serial I/O")]
     Io(#[from] std::io::Error),
     /// No reply to a request in time.
-    #[error("no reply to request {seq} within {timeout_ms} ms")]
+    #[error(
+        "no reply to request {seq} within {timeout_ms} ms: the drive may have received it and \
+         be carrying it out (a move may be running); ask it with `status`"
+    )]
     Timeout {
         /// The request's sequence number.
         seq: u16,
@@ -65,17 +68,26 @@ impl SerialDrive<Box<dyn serialport::SerialPort>> {
                 port: path.to_string(),
                 source,
             })?;
+        // Whatever the line holds from before this run (a late reply to another run's
+        // request, the drive's stream) is not for this run.
+        port.clear(serialport::ClearBuffer::Input)
+            .map_err(|source| LinkError::Open {
+                port: path.to_string(),
+                source,
+            })?;
         Ok(Self::new(port, timeout))
     }
 }
 
 impl<P: Read + Write> SerialDrive<P> {
-    /// A drive on `port` (whose reads should time out after a few milliseconds).
+    /// A drive on `port` (whose reads should time out after a few milliseconds). Each run
+    /// numbers its requests from a random start, so a late reply to another run's request
+    /// (one that timed out there) is never taken for a reply to this run's.
     pub fn new(port: P, timeout: Duration) -> Self {
         Self {
             port,
             reader: FrameReader::new(),
-            seq: 0,
+            seq: rand::random::<u16>(),
             timeout,
             records: vec![],
             bad_frames: 0,
