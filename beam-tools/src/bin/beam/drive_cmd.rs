@@ -359,15 +359,15 @@ fn print_exchange(t: f64, request: &Request, outcome: &Outcome) {
 fn describe(r: &Request) -> String {
     match &r.command {
         Command::MoveTo { to_rad, time_s } => format!(
-            "move {:.1}{}",
-            to_rad.to_degrees(),
+            "move {}{}",
+            degrees(*to_rad),
             time_s.map_or(String::new(), |t| format!(" {t}"))
         ),
         Command::MoveThrough { waypoints, time_s } => format!(
             "through {}{}",
             waypoints
                 .iter()
-                .map(|w| format!("{:.1}", w.rad.to_degrees()))
+                .map(|w| degrees(w.rad))
                 .collect::<Vec<_>>()
                 .join(","),
             time_s.map_or(String::new(), |t| format!(" {t}"))
@@ -379,6 +379,13 @@ fn describe(r: &Request) -> String {
         Command::Status => "status".into(),
         Command::Stream { every } => format!("stream {every}"),
     }
+}
+
+/// An angle the script gave in degrees, as it gave it: the drive's f32 radians back in
+/// degrees to 1e-4 deg, its shortest decimal (`179.97`, not a rounded `180.0`).
+fn degrees(rad: f32) -> String {
+    let deg = (rad.to_degrees() as f64 * 1e4).round() / 1e4;
+    format!("{}", deg + 0.0)
 }
 
 fn move_results(run: &CommandedRun, settle: &SettleSpec) -> Vec<MoveResult> {
@@ -554,4 +561,25 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
         );
     }
     refusals(exchanges.iter().map(|(_, _, reply)| &reply.outcome))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_move_prints_as_the_script_gave_it() {
+        let deg = |d: f32| d.to_radians();
+        let to = |d: f32| Request {
+            seq: 1,
+            command: Command::MoveTo {
+                to_rad: deg(d),
+                time_s: None,
+            },
+        };
+        assert_eq!(describe(&to(179.97)), "move 179.97");
+        assert_eq!(describe(&to(-10.0)), "move -10");
+        assert_eq!(describe(&to(0.05)), "move 0.05");
+        assert_eq!(describe(&to(-0.0)), "move 0");
+    }
 }
