@@ -347,12 +347,42 @@ fn report(a: &DriveArgs, run: &CommandedRun, moves: &[MoveResult], pil: Option<P
 /// One exchange as a line: when, the request's number and words, the reply.
 fn print_exchange(t: f64, request: &Request, outcome: &Outcome) {
     println!(
-        "{:8.3} s  #{:<3} {:<28} -> {:?}",
+        "{:8.3} s  #{:<3} {:<28} -> {}",
         t,
         request.seq,
         describe(request),
-        outcome
+        outcome_text(outcome)
     );
+}
+
+/// A reply in words: a status with its mode and faults named and its figures in units; the
+/// others as the protocol names them.
+fn outcome_text(outcome: &Outcome) -> String {
+    let Outcome::Status(s) = outcome else {
+        return format!("{outcome:?}");
+    };
+    let mode = match s.mode {
+        0 => "idle".to_string(),
+        1 => "slewing".to_string(),
+        2 => "holding".to_string(),
+        3 => "fault".to_string(),
+        m => format!("mode {m}"),
+    };
+    let stream = match s.stream_every {
+        0 => "off".to_string(),
+        n => format!("every {n} tick(s)"),
+    };
+    format!(
+        "Status: {mode}; faults {}; hub {:.3} deg at {:.2} deg/s; root strain {:.1} ue; move {:.3} of {:.3} s; payload {} kg; law {}; stream {stream}",
+        model_core::FaultFlags(s.faults),
+        s.theta_rad.to_degrees(),
+        s.omega_rad_s.to_degrees(),
+        s.strain * 1e6,
+        s.move_elapsed_s,
+        s.move_duration_s,
+        s.payload_kg,
+        s.law.map_or("none", |l| l.name()),
+    )
 }
 
 /// A request in the script's words.
@@ -581,5 +611,39 @@ mod tests {
         assert_eq!(describe(&to(-10.0)), "move -10");
         assert_eq!(describe(&to(0.05)), "move 0.05");
         assert_eq!(describe(&to(-0.0)), "move 0");
+    }
+
+    #[test]
+    fn a_status_reads_as_words_with_units() {
+        let status = Outcome::Status(beam_wire::command::Status {
+            mode: 3,
+            faults: model_core::FaultFlags::ENCODER_STUCK.0 | model_core::FaultFlags::AMP_FAULT.0,
+            theta_rad: core::f32::consts::FRAC_PI_2,
+            omega_rad_s: -0.1,
+            strain: 41.3e-6,
+            move_elapsed_s: 0.235,
+            move_duration_s: 0.235,
+            payload_kg: 0.025,
+            law: Some(LawKind::Smc),
+            stream_every: 0,
+        });
+        let text = outcome_text(&status);
+        assert!(text.starts_with("Status: fault; faults "), "{text}");
+        for word in [
+            "amp-fault",
+            "encoder-stuck",
+            "hub 90.000 deg",
+            "-5.73 deg/s",
+            "41.3 ue",
+            "payload 0.025 kg",
+            "law smc",
+            "stream off",
+        ] {
+            assert!(text.contains(word), "{word}: {text}");
+        }
+        assert!(
+            !text.contains("mode: 3") && !text.contains("faults: "),
+            "{text}"
+        );
     }
 }
