@@ -230,8 +230,8 @@ fn the_integral_sliding_mode_rejects_a_load_below_jeff_a() {
 
 #[test]
 fn the_full_state_sliding_mode_holds_a_load_and_its_switching_term_stiffens_it() {
-    // The hold test: 0.5 N m at rest moves the hub less than 1 deg, and the hub comes
-    // back when the load goes. Without the switching term (A = 0) the law is the LQR on the
+    // The hold test the shipped rows must pass: 0.5 N m at rest moves the hub less than 1 deg,
+    // and the hub comes back when the load goes. Without the switching term (A = 0) the law is the LQR on the
     // observer, and the observer, which does not know of the load, carries part of it as a
     // bent beam; the switching term adds Jeff A f(beta s) along the same surface, so with it
     // the hub gives way less.

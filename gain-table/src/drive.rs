@@ -60,18 +60,22 @@ fn is_false(b: &bool) -> bool {
     !*b
 }
 
+/// The reference drive: the paper's law and the instruments model-core starts from
+/// (`Instruments::DEFAULT`), so a table without `[drive]` and a loop built on the defaults
+/// read the beam alike.
 impl Default for DriveSpec {
     fn default() -> Self {
+        let model_core::Instruments { encoder, adc } = model_core::Instruments::DEFAULT;
         Self {
             law: LawKind::DEFAULT_DRIVE,
             payload_kg: 0.0,
-            encoder_counts_per_rev: 16384,
-            encoder_counter_bits: 16,
-            adc_bits: 24,
-            strain_full_scale: 5000e-6,
-            torque_full_scale_nm: 10.0,
-            encoder_reversed: false,
-            strain_reversed: false,
+            encoder_counts_per_rev: encoder.counts_per_rev,
+            encoder_counter_bits: encoder.counter_bits,
+            adc_bits: adc.bits,
+            strain_full_scale: adc.full_scale_strain,
+            torque_full_scale_nm: model_core::DRIVE_TORQUE_LIMIT_NM as f64,
+            encoder_reversed: encoder.reversed,
+            strain_reversed: adc.reversed,
             torque_reversed: false,
         }
     }
