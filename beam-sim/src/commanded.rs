@@ -3,7 +3,7 @@
 //! on the same controller the firmware runs.
 
 use crate::plant::{Plant, State};
-use crate::sensors::{SensorConfig, Sensors};
+use crate::sensors::{SensorConfig, SensorFault, Sensors};
 use crate::sim::{settings_for, Integrator, SimError};
 use beam_wire::command::{Command, Outcome, Reply, Request};
 use model_core::commands::{CommandedController, Commander};
@@ -32,6 +32,15 @@ pub enum Step {
     /// Change the payload the beam really carries, kg (attached at rest: the state carries
     /// over; tell the drive with `SetPayload`).
     Attach(f64),
+    /// From now on a constant external torque acts on the hub, N m (a tilted rig, a cable, a
+    /// hand; 0 removes it).
+    Load(f64),
+    /// From now on the sensors fail as this says ([`SensorFault::None`] heals them).
+    Sensor(SensorFault),
+    /// From now on each command is prepared on a snapshot this many ticks before it is
+    /// applied, with the ticks in between run (a board's link task, which plans while the
+    /// tick goes on); 0, the default, applies it at once.
+    Latency(u32),
 }
 
 /// A command, when it was sent, and the drive's answer.
@@ -136,6 +145,28 @@ pub trait CommandedDrive {
     fn handle(&mut self, request: &Request) -> Result<Reply, SimError>;
     /// One tick.
     fn tick(&mut self, raw: &RawMeasurement) -> Result<TorqueCommand, SimError>;
+    /// The first half of [`CommandedDrive::handle`]: the command planned on the drive's
+    /// state now, to be applied by [`CommandedDrive::apply`] after some ticks. A drive that
+    /// cannot split a command (the default) plans it when it is applied.
+    fn prepare(&mut self, request: &Request) -> Result<Pending, SimError> {
+        Ok(Pending {
+            request: request.clone(),
+            action: None,
+        })
+    }
+    /// The second half: what [`CommandedDrive::prepare`] made, applied now.
+    fn apply(&mut self, pending: Pending) -> Result<Reply, SimError> {
+        self.handle(&pending.request)
+    }
+}
+
+/// A command prepared and not yet applied ([`CommandedDrive::prepare`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pending {
+    /// The command.
+    pub request: Request,
+    /// What the handler made of it, if the drive plans ahead.
+    pub action: Option<Result<model_core::commands::Action, beam_wire::command::Refusal>>,
 }
 
 /// model-core's command handler and controller, run on the host: the drive the firmware
@@ -187,6 +218,25 @@ impl CommandedDrive for HostDrive<'_> {
     fn tick(&mut self, raw: &RawMeasurement) -> Result<TorqueCommand, SimError> {
         Ok(self.controller.step(raw))
     }
+
+    fn prepare(&mut self, request: &Request) -> Result<Pending, SimError> {
+        let snap = self.controller.snapshot();
+        Ok(Pending {
+            request: request.clone(),
+            action: Some(self.commander.prepare(&request.command, &snap)),
+        })
+    }
+
+    fn apply(&mut self, pending: Pending) -> Result<Reply, SimError> {
+        let Some(action) = pending.action else {
+            return self.handle(&pending.request);
+        };
+        let outcome = action.and_then(|a| self.commander.apply(a, &mut self.controller));
+        Ok(Reply {
+            seq: pending.request.seq,
+            outcome: outcome.unwrap_or_else(Outcome::Refused),
+        })
+    }
 }
 
 /// Runs `script` against the beam `plant` with model-core's handler on the host, the
@@ -227,16 +277,18 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
     let mut run = CommandedRun::default();
     let mut seq: u16 = 0;
     let mut k: usize = 0;
-    let mut amp_fault_ticks = 0u32;
+    let mut world = World::default();
     let tick = |plant: &Plant<N>,
                 x: &mut State<N>,
                 drive: &mut D,
                 sens: &mut Sensors,
-                amp_fault: bool,
+                world: &mut World,
                 run: &mut CommandedRun,
                 k: &mut usize|
      -> Result<Mode, SimError> {
         let t = crate::decimal::tick_time(*k, ts);
+        let amp_fault = world.amp_fault_ticks > 0;
+        world.amp_fault_ticks = world.amp_fault_ticks.saturating_sub(1);
         let raw = sens.read(x.theta, plant.outputs(x).root_strain, amp_fault);
         let cmd = drive.tick(&raw)?;
         run.ticks.push(Tick {
@@ -246,7 +298,8 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
             torque_nm: cmd.torque_nm,
             mode: cmd.mode,
         });
-        let tau = plant.saturate(cmd.torque_nm as f64);
+        // The load acts on the hub besides the motor, whose torque alone is limited.
+        let tau = plant.saturate(cmd.torque_nm as f64) + world.load_nm;
         let Integrator::Rk4 { substeps } = Integrator::default() else {
             unreachable!("the default integrator is RK4")
         };
@@ -261,7 +314,7 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
     // Let the strain offset settle before the first command, as after power-up.
     for _ in 0..50 {
         tick(
-            &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
+            &plant_now, &mut x, drive, &mut sens, &mut world, &mut run, &mut k,
         )?;
     }
     for step in script {
@@ -272,20 +325,25 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
                     seq,
                     command: command.clone(),
                 };
-                let reply = drive.handle(&request)?;
-                run.exchanges.push(Exchange {
-                    t: crate::decimal::tick_time(k, ts),
-                    request,
-                    reply,
-                });
+                let t = crate::decimal::tick_time(k, ts);
+                let reply = if world.latency_ticks == 0 {
+                    drive.handle(&request)?
+                } else {
+                    let pending = drive.prepare(&request)?;
+                    for _ in 0..world.latency_ticks {
+                        tick(
+                            &plant_now, &mut x, drive, &mut sens, &mut world, &mut run, &mut k,
+                        )?;
+                    }
+                    drive.apply(pending)?
+                };
+                run.exchanges.push(Exchange { t, request, reply });
             }
             Step::Wait(s) => {
                 let n = (s / ts).round() as usize;
                 for _ in 0..n {
-                    let fault = amp_fault_ticks > 0;
-                    amp_fault_ticks = amp_fault_ticks.saturating_sub(1);
                     tick(
-                        &plant_now, &mut x, drive, &mut sens, fault, &mut run, &mut k,
+                        &plant_now, &mut x, drive, &mut sens, &mut world, &mut run, &mut k,
                     )?;
                 }
             }
@@ -293,7 +351,7 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
                 let limit = (max_s / ts).round() as usize;
                 // One tick first: a move just commanded starts on the next tick.
                 let mut mode = tick(
-                    &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
+                    &plant_now, &mut x, drive, &mut sens, &mut world, &mut run, &mut k,
                 )?;
                 let mut n = 1;
                 while mode == Mode::Slewing {
@@ -301,26 +359,40 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
                         return Err(SimError::Option("a move did not end within its wait"));
                     }
                     mode = tick(
-                        &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
+                        &plant_now, &mut x, drive, &mut sens, &mut world, &mut run, &mut k,
                     )?;
                     n += 1;
                 }
                 for _ in 0..(settle_s / ts).round() as usize {
                     tick(
-                        &plant_now, &mut x, drive, &mut sens, false, &mut run, &mut k,
+                        &plant_now, &mut x, drive, &mut sens, &mut world, &mut run, &mut k,
                     )?;
                 }
             }
-            Step::AmpFault(n) => amp_fault_ticks = *n,
+            Step::AmpFault(n) => world.amp_fault_ticks = *n,
             Step::Attach(kg) => {
                 plant_now = build(BeamParams {
                     tip_mass_kg: *kg,
                     ..plant
                 })?;
             }
+            Step::Load(nm) => world.load_nm = *nm,
+            Step::Sensor(fault) => sens.inject(*fault),
+            Step::Latency(n) => world.latency_ticks = *n,
         }
     }
     Ok(run)
+}
+
+/// What acts on the drive besides its commands, as the script has set it.
+#[derive(Clone, Copy, Debug, Default)]
+struct World {
+    /// External torque on the hub, N m.
+    load_nm: f64,
+    /// Ticks the amplifier's fault line stays asserted.
+    amp_fault_ticks: u32,
+    /// Ticks between a command's snapshot and its application.
+    latency_ticks: u32,
 }
 
 /// A session that exercises every command: from rest at 0 deg, to 45 deg (with a status

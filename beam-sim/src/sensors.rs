@@ -55,6 +55,29 @@ impl Default for SensorConfig {
     }
 }
 
+/// A sensor failure to inject ([`Sensors::inject`]): what goes wrong on a rig.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum SensorFault {
+    /// Both sensors read true.
+    #[default]
+    None,
+    /// The gauge's code stays at its last reading (a converter that stopped updating).
+    GaugeStuck,
+    /// The gauge reads the converter's zero code (the bridge's excitation open).
+    GaugeZero,
+    /// The gauge reads the strain with the other sign (the bridge wired reversed).
+    GaugeReversed,
+    /// The gauge reads this many times the strain (a wrong gain resistor).
+    GaugeGain(f64),
+    /// The gauge reads this much strain too much (a drifting bridge), strain.
+    GaugeBias(f64),
+    /// The encoder's count stays at its last reading (a disconnected encoder).
+    EncoderStuck,
+    /// The encoder's count jumps by this many counts, once, and stays off by them (a
+    /// slipped disc, a noise burst the counter took as counts).
+    EncoderJump(i64),
+}
+
 /// The simulated sensor set.
 #[derive(Clone, Debug)]
 pub struct Sensors {
@@ -62,6 +85,11 @@ pub struct Sensors {
     theta_home: f64,
     noise: Normal<f64>,
     rng: StdRng,
+    fault: SensorFault,
+    /// Counts the encoder is off by (jumps so far).
+    count_offset: i64,
+    /// The last readings (for the stuck faults).
+    last: Option<(i64, i32)>,
 }
 
 impl Sensors {
@@ -78,7 +106,19 @@ impl Sensors {
             noise: Normal::new(0.0, std)
                 .unwrap_or(Normal::new(0.0, 0.0).expect("zero std is valid")),
             rng: StdRng::seed_from_u64(cfg.seed),
+            fault: SensorFault::None,
+            count_offset: 0,
+            last: None,
         }
+    }
+
+    /// From the next reading on, the sensors fail as `fault` says (in place of any fault
+    /// injected before; an encoder's jump stays). [`SensorFault::None`] heals them.
+    pub fn inject(&mut self, fault: SensorFault) {
+        if let SensorFault::EncoderJump(n) = fault {
+            self.count_offset = self.count_offset.saturating_add(n);
+        }
+        self.fault = fault;
     }
 
     /// The encoder count (unwrapped, quantised toward minus infinity) at hub angle `theta`;
@@ -92,20 +132,34 @@ impl Sensors {
         }
     }
 
-    /// The raw readings for hub angle `theta` and root strain `strain`.
+    /// The raw readings for hub angle `theta` and root strain `strain`, through any fault
+    /// injected.
     pub fn read(&mut self, theta: f64, strain: f64, amp_fault: bool) -> RawMeasurement {
-        let raw_counter = (self.count(theta) as u64 & self.cfg.encoder.mask() as u64) as u32;
         let noisy = strain + self.noise.sample(&mut self.rng);
+        let read_strain = match self.fault {
+            SensorFault::GaugeReversed => -noisy,
+            SensorFault::GaugeGain(k) => k * noisy,
+            SensorFault::GaugeBias(b) => noisy + b,
+            _ => noisy,
+        };
         // A reversed bridge gives the same code magnitudes with the other sign.
-        let up = (noisy / self.cfg.adc.strain_per_code()).round();
+        let up = (read_strain / self.cfg.adc.strain_per_code()).round();
         let up = if self.cfg.adc.reversed { -up } else { up };
         let code = up + self.cfg.adc_offset_code as f64;
         let code = code.clamp(
             self.cfg.adc.min_code() as f64,
             self.cfg.adc.max_code() as f64,
         ) as i32;
+        let count = self.count(theta).saturating_add(self.count_offset);
+        let (count, code) = match (self.fault, self.last) {
+            (SensorFault::EncoderStuck, Some((last, _))) => (last, code),
+            (SensorFault::GaugeStuck, Some((_, last))) => (count, last),
+            (SensorFault::GaugeZero, _) => (count, 0),
+            _ => (count, code),
+        };
+        self.last = Some((count, code));
         RawMeasurement {
-            encoder_raw: raw_counter,
+            encoder_raw: (count as u64 & self.cfg.encoder.mask() as u64) as u32,
             strain_root_code: code,
             amp_fault,
             driver_fault: false,

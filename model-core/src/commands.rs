@@ -166,23 +166,36 @@ impl<'t, const LAWS: LawSet> CommanderIn<'t, LAWS> {
                 }))
             }
             Command::Stop => {
+                // Never refused while the hub turns, in any mode but Fault (whose torque
+                // stays off until `clear`): a move of this handler's is cut on its own plan,
+                // anything else (a hub coasting with the torque off, a hold that lost its
+                // hub, a move this handler did not plan) is braked by the drive's brake.
+                if snap.mode == Mode::Fault {
+                    return Err(Refusal::Faulted);
+                }
+                let brake = || {
+                    plan_brake(snap.theta_rad, snap.omega_rad_s, &self.limits)
+                        .map(Action::Brake)
+                        .map_err(plan_refusal)
+                };
                 if snap.mode != Mode::Slewing {
-                    // No move, but a hub still turning (the torque was off): brake it (a
-                    // latched fault refuses the brake when it is applied).
                     if at_rest(snap).is_ok() {
                         return Err(Refusal::NotMoving);
                     }
-                    return start(plan_brake(snap.theta_rad, snap.omega_rad_s, &self.limits));
+                    return brake();
                 }
-                let current = self.current.as_ref().ok_or(Refusal::NotMoving)?;
+                let Some(current) = self.current.as_ref() else {
+                    return brake();
+                };
                 // The next tick evaluates the move at the elapsed time (it has counted this
                 // tick).
-                let stopped =
-                    plan_stop(current, snap.move_elapsed_s, &self.limits).map_err(plan_refusal)?;
-                Ok(Action::Stop {
-                    plan: stopped,
-                    cut_s: snap.move_elapsed_s,
-                })
+                match plan_stop(current, snap.move_elapsed_s, &self.limits) {
+                    Ok(stopped) => Ok(Action::Stop {
+                        plan: stopped,
+                        cut_s: snap.move_elapsed_s,
+                    }),
+                    Err(_) => brake(),
+                }
             }
             Command::Disable => Ok(Action::Disable),
             Command::ClearFault => Ok(Action::ClearFault),
@@ -230,6 +243,12 @@ impl<'t, const LAWS: LawSet> CommanderIn<'t, LAWS> {
                 }
                 let duration_s = plan.shaped.duration_s();
                 ctl.replace_move(plan.shaped.clone()).map_err(refusal)?;
+                self.current = Some(plan);
+                Ok(Outcome::Moving { duration_s })
+            }
+            Action::Brake(plan) => {
+                let duration_s = plan.shaped.duration_s();
+                ctl.start_brake(plan.shaped.clone()).map_err(refusal)?;
                 self.current = Some(plan);
                 Ok(Outcome::Moving { duration_s })
             }
@@ -303,6 +322,9 @@ pub enum Action {
         /// Where it leaves the running move, s since the move started.
         cut_s: f32,
     },
+    /// Brake the hub along this plan, in place of whatever runs
+    /// ([`Controller::start_brake`]): it starts where its first tick finds the hub.
+    Brake(Plan),
     /// Use these gains, shaper and limits.
     SetPayload(Schedule),
     /// Torque off.

@@ -235,6 +235,8 @@ struct Config<const K: usize> {
     counter_width: CounterWidth,
     velocity_lpf: LowPass,
     strain_rate_lpf: LowPass,
+    /// The brake's gains on this law's rigid inertia ([`Brake::for_inertia`]).
+    brake: Brake,
 }
 
 /// Loop state: filters, counters and the mode.
@@ -267,6 +269,13 @@ struct State {
     /// The last tick's hub angle and root strain (for status and for planning the next move).
     theta: f32,
     strain: f32,
+    /// The armed start is a brake ([`Controller::start_brake`]).
+    brake_pending: bool,
+    /// The running move is a brake: the drive's own law tracks it, not the table's.
+    braking: bool,
+    /// Added to the reference's angle: a brake's plan is moved onto the hub where its first
+    /// tick finds it (0 for a move).
+    ref_offset: f32,
 }
 
 /// The drive's range, rad: moves are planned within +-this of the encoder's zero (the
@@ -369,6 +378,7 @@ impl<const K: usize> Controller<K> {
         if !(max_counts < half_range as f32) {
             return Err(bad("max_speed_rad_s", ParamErrorKind::OutOfRange));
         }
+        let brake = Brake::for_inertia(law.rigid_inertia());
         let cfg = Config {
             settings,
             law,
@@ -381,6 +391,7 @@ impl<const K: usize> Controller<K> {
             counter_width: s.encoder.width(),
             velocity_lpf,
             strain_rate_lpf,
+            brake,
         };
         let st = State {
             offset_code: s.strain_offset_code as f32,
@@ -396,26 +407,53 @@ impl<const K: usize> Controller<K> {
             Mode::Fault => Err(CommandError::Faulted),
             Mode::Slewing => Err(CommandError::Busy),
             Mode::Idle | Mode::Holding => {
-                // The range, widened to the move's ends (a move back into it, a brake).
-                let (a, b) = (self.cfg.spline.start(), self.cfg.spline.end());
-                let (lo, hi) = (a.min(b).min(-RANGE_RAD), a.max(b).max(RANGE_RAD));
-                // The strain offset the move will use: the mean of the idle codes so far,
-                // which are exactly those the next tick (which takes the start) would see.
-                // The 64-bit division runs here, with the command, and not in a tick.
-                let st = &mut self.st;
-                if st.zero_n > 0 {
-                    st.zero_mean = mean_code(st.zero_sum, st.zero_n);
-                }
-                // As centre and half-width: one comparison a tick.
-                st.range = ((lo + hi) / 2.0, (hi - lo) / 2.0 + RANGE_FAULT_MARGIN_RAD);
-                // The law starts the move from a clear state. Cleared here rather than when
-                // the next tick takes the start: no tick runs the law in between, and that
-                // first tick is the observer laws' worst.
-                st.law_state.restart();
-                st.start_pending = true;
+                self.arm(false);
                 Ok(())
             }
         }
+    }
+
+    /// Brakes the hub along `spline` (`planner::plan_brake`: from the hub's angle and rate
+    /// at some snapshot to rest), in place of whatever runs: from Idle (a hub coasting with
+    /// the torque off), Holding (a hold that lost its hub) or Slewing (a move that cannot be
+    /// stopped on its own plan). Refused only in the Fault mode.
+    ///
+    /// The brake is the drive's, not the table law's: the hub is tracked by rigid-body
+    /// feedforward and a PD on the hub alone ([`Brake`]), the same for every law, since a
+    /// law tuned for moves from rest (a sliding surface, an observer started from rest) can
+    /// lose a hub that is turning fast. Its next tick moves the plan onto the hub where it
+    /// finds it (the plan was made from a snapshot, and ticks have passed since: a hub at
+    /// 25 rad/s turns 0.025 rad a tick), so no start check applies; the plan's rate is the
+    /// snapshot's, which a coasting hub keeps. The law takes over again with the next move.
+    pub fn start_brake(&mut self, spline: Spline<K>) -> Result<(), CommandError> {
+        if self.mode() == Mode::Fault {
+            return Err(CommandError::Faulted);
+        }
+        self.cfg.spline = spline;
+        self.arm(true);
+        Ok(())
+    }
+
+    /// Arms the spline's start for the next tick (a brake's if `brake`).
+    fn arm(&mut self, brake: bool) {
+        // The range, widened to the move's ends (a move back into it, a brake).
+        let (a, b) = (self.cfg.spline.start(), self.cfg.spline.end());
+        let (lo, hi) = (a.min(b).min(-RANGE_RAD), a.max(b).max(RANGE_RAD));
+        // The strain offset the move will use: the mean of the idle codes so far,
+        // which are exactly those the next tick (which takes the start) would see.
+        // The 64-bit division runs here, with the command, and not in a tick.
+        let st = &mut self.st;
+        if st.zero_n > 0 {
+            st.zero_mean = mean_code(st.zero_sum, st.zero_n);
+        }
+        // As centre and half-width: one comparison a tick.
+        st.range = ((lo + hi) / 2.0, (hi - lo) / 2.0 + RANGE_FAULT_MARGIN_RAD);
+        // The law starts the move from a clear state. Cleared here rather than when
+        // the next tick takes the start: no tick runs the law in between, and that
+        // first tick is the observer laws' worst.
+        st.law_state.restart();
+        st.start_pending = true;
+        st.brake_pending = brake;
     }
 
     /// Clears latched faults and returns to `Idle` (torque off). The strain offset is measured
@@ -438,6 +476,7 @@ impl<const K: usize> Controller<K> {
         if self.mode() == Mode::Slewing {
             return Err(CommandError::Busy);
         }
+        self.cfg.brake = Brake::for_inertia(law.rigid_inertia());
         self.cfg.law = law;
         Ok(())
     }
@@ -637,7 +676,13 @@ impl<const K: usize> Controller<K> {
         // latch: no mode check is needed.
         if st.start_pending {
             st.start_pending = false;
-            if libm::fabsf(theta - cfg.spline.start()) > cfg.settings.start_tolerance_rad {
+            // A brake starts where the hub is (see `start_brake`); a move where its plan does.
+            let offset = if st.brake_pending {
+                theta - cfg.spline.start()
+            } else {
+                0.0
+            };
+            if libm::fabsf(theta - offset - cfg.spline.start()) > cfg.settings.start_tolerance_rad {
                 faults.insert(FaultFlags::START_MISMATCH);
             } else {
                 if st.mode == Mode::Idle && st.zero_n > 0 {
@@ -648,17 +693,26 @@ impl<const K: usize> Controller<K> {
                 st.segment = 0;
                 st.last_strain = None;
                 st.strain_rate = 0.0;
+                st.braking = st.brake_pending;
+                st.ref_offset = offset;
+                st.range.0 += offset;
             }
         }
         faults
     }
 
     /// Stage 3: the root strain with the offset removed, and its filtered rate (zero on the
-    /// first tick of a move). While idle, the code is added to the offset average.
+    /// first tick of a move). While idle with the hub at rest, the code is added to the
+    /// offset average.
     #[inline(always)]
     fn estimate_strain(&mut self, code: i32) -> (f32, f32) {
         let (cfg, st) = (&self.cfg, &mut self.st);
-        if st.mode == Mode::Idle && st.zero_n < MAX_ZERO_SAMPLES {
+        // Only while the hub is at rest: a hub turned, pushed or coasting bends the beam,
+        // and that strain is not the bridge's offset.
+        if st.mode == Mode::Idle
+            && st.zero_n < MAX_ZERO_SAMPLES
+            && libm::fabsf(st.omega) < REST_RAD_S
+        {
             st.zero_sum += code as i64;
             st.zero_n += 1;
         }
@@ -727,7 +781,8 @@ impl<const K: usize> Controller<K> {
             return None;
         }
         let t = st.ticks as f32 * cfg.settings.ts_s;
-        let reference = cfg.spline.eval_from(&mut st.segment, t);
+        let mut reference = cfg.spline.eval_from(&mut st.segment, t);
+        reference.pos += st.ref_offset;
         if st.mode == Mode::Slewing {
             if t >= cfg.spline.duration_s() {
                 st.mode = Mode::Holding;
@@ -752,9 +807,12 @@ impl<const K: usize> Controller<K> {
         let (cfg, st) = (&self.cfg, &mut self.st);
         let mut torque = 0.0;
         if let Some(r) = reference {
-            torque = cfg
-                .law
-                .torque_nm_in::<LAWS>(x, r, &mut st.law_state, cfg.settings.ts_s);
+            torque = if st.braking {
+                cfg.brake.torque_nm(x, r)
+            } else {
+                cfg.law
+                    .torque_nm_in::<LAWS>(x, r, &mut st.law_state, cfg.settings.ts_s)
+            };
             if !torque.is_finite() {
                 st.faults.insert(FaultFlags::NON_FINITE);
                 st.mode = Mode::Fault;
@@ -786,6 +844,52 @@ impl<const K: usize> Controller<K> {
             torque = 0.0;
         }
         torque
+    }
+}
+
+/// The drive's brake law ([`Controller::start_brake`]): `tau = J theta_r'' + Kp (theta_r -
+/// theta) + Kd (theta_r' - theta')` on the hub alone, with `J` the rigid inertia (hub, beam,
+/// payload) of the law in use and the PD placed at [`Brake::BANDWIDTH_RAD_S`] with damping
+/// [`Brake::DAMPING`] on it. A PD on the hub's own angle and rate, where the torque acts, is
+/// stable with any flexible beam on the hub (the collocated loop is passive), and it needs no
+/// state that a hub turning fast could leave behind.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Brake {
+    /// Rigid inertia, kg m^2.
+    pub inertia: f32,
+    /// Proportional gain, N m/rad.
+    pub kp: f32,
+    /// Derivative gain, N m s/rad.
+    pub kd: f32,
+}
+
+impl Brake {
+    /// The PD's natural frequency on the rigid inertia, rad/s (6.4 Hz): on the aluminium
+    /// beam (0.027 kg m^2) Kp 43 N m/rad and Kd 1.5 N m s/rad, the neighbourhood of the
+    /// feedforward-plus-PD rows that recover a coasting hub.
+    pub const BANDWIDTH_RAD_S: f32 = 40.0;
+    /// The PD's damping ratio on the rigid inertia.
+    pub const DAMPING: f32 = 0.7;
+
+    /// The brake for a hub of rigid inertia `inertia` (kg m^2; not positive or not finite
+    /// gives a brake of no torque, which the laws' validation rules out).
+    pub fn for_inertia(inertia: f32) -> Self {
+        let j = if inertia.is_finite() && inertia > 0.0 {
+            inertia
+        } else {
+            0.0
+        };
+        Self {
+            inertia: j,
+            kp: j * Self::BANDWIDTH_RAD_S * Self::BANDWIDTH_RAD_S,
+            kd: 2.0 * Self::DAMPING * j * Self::BANDWIDTH_RAD_S,
+        }
+    }
+
+    /// The brake's torque at `r` for the hub `x`, N m (before the drive's limit).
+    #[inline(always)]
+    fn torque_nm(&self, x: &Estimate, r: &RefPoint) -> f32 {
+        self.inertia * r.acc + self.kp * (r.pos - x.theta) + self.kd * (r.vel - x.omega)
     }
 }
 

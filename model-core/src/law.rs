@@ -492,6 +492,13 @@ impl ControlLaw {
         &self.law
     }
 
+    /// The rigid inertia of hub, beam and payload about the axis the law was built on
+    /// (`Mtt`), kg m^2: the drive's brake feeds it forward
+    /// ([`Brake`](crate::controller::Brake)).
+    pub fn rigid_inertia(&self) -> f32 {
+        self.rigid_inertia
+    }
+
     /// The observer's design the law was built with (lqg, smc-modal); `None` for the others.
     #[cfg(feature = "observer")]
     pub fn observer_design(&self) -> Option<&LqgDesign> {

@@ -443,6 +443,16 @@ fn out_of_range(p: &Peaks, limits: &Limits) -> Result<(), PlanError> {
 /// base has ended, or that could not stop short of its target, is returned unchanged (its
 /// own end is then the quickest stop).
 pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanError> {
+    stop_within(plan, at_s, limits, Limits::planned_torque_nm)
+}
+
+/// [`plan_stop`], with the stop's torque bounded by `torque(limits, peaks)`.
+fn stop_within(
+    plan: &Plan,
+    at_s: f32,
+    limits: &Limits,
+    torque: fn(&Limits, &Peaks) -> f32,
+) -> Result<Plan, PlanError> {
     limits.check()?;
     if !at_s.is_finite() {
         return Err(PlanError::NonFinite);
@@ -485,8 +495,9 @@ pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanEr
         // The cut base has at most the base's knots before `at`, `at` and the stop's end.
         let stopped = Spline::<BASE_KNOTS>::try_from_states(cut.get(..n).unwrap_or(&[]))?;
         let p = stopped.peaks();
-        if limits.planned_torque_nm(&p) <= limits.torque_budget_nm()
-            && p.max_abs_vel <= limits.max_speed_rad_s.max(libm::fabsf(r.vel))
+        if torque(limits, &p) <= limits.torque_budget_nm()
+            // (The stop's peak rate is the cut's; its rounding may put it a step above.)
+            && p.max_abs_vel <= limits.max_speed_rad_s.max(libm::fabsf(r.vel) * 1.001)
         {
             return Plan::new(stopped, &plan.shaper);
         }
@@ -499,7 +510,13 @@ pub fn plan_stop(plan: &Plan, at_s: f32, limits: &Limits) -> Result<Plan, PlanEr
 /// that starts where the hub is, at its rate, and decelerates evenly as [`plan_stop`] would
 /// stop a move there, unshaped (a shaper would hold part of the reference back at the start
 /// while the hub runs on). The range is not checked: a hub outside it must be stoppable, and
-/// the drive's range fault widens to the brake's end.
+/// the drive's range fault widens to the brake's end. Nor is the speed limit: the brake never
+/// asks for more speed than the hub has.
+///
+/// The brake decelerates from the start (no acceleration at the rate of the coast), so the
+/// friction works with it, not against it: the torque it needs is at most the larger of the
+/// inertia's and the friction's, not their sum, which at 25 rad/s would leave no budget at
+/// all on a hub with 0.2 N m s/rad of viscous friction.
 pub fn plan_brake(from: f32, rate_rad_s: f32, limits: &Limits) -> Result<Plan, PlanError> {
     if !(from.is_finite() && rate_rad_s.is_finite()) {
         return Err(PlanError::NonFinite);
@@ -510,7 +527,9 @@ pub fn plan_brake(from: f32, rate_rad_s: f32, limits: &Limits) -> Result<Plan, P
         (MAX_MOVE_S, from + rate_rad_s * MAX_MOVE_S, 0.0, 0.0),
     ];
     let coast = Plan::new(Spline::try_from_states(&coast)?, &Shaper::NONE)?;
-    plan_stop(&coast, 0.0, limits)
+    stop_within(&coast, 0.0, limits, |l, p| {
+        (l.inertia_kgm2 * p.max_abs_acc).max(l.coulomb_nm + l.viscous_nms * p.max_abs_vel)
+    })
 }
 
 #[cfg(test)]

@@ -10,9 +10,17 @@
 //! done [S]                 wait for the move to end, then S more seconds (default 0.4)
 //! attach KG                (simulated beam only) the payload the beam really carries
 //! fault N                  (simulated beam only) the amplifier's fault line for N ticks
+//! load NM                  (simulated beam only) a constant torque on the hub from now on
+//! sensor gauge stuck|zero|reversed|gain K|bias UE|ok
+//!                          (simulated beam only) the strain gauge fails so from now on
+//! sensor encoder stuck|jump COUNTS|ok
+//!                          (simulated beam only) the encoder fails so from now on
+//! sensor ok                (simulated beam only) both sensors read true again
+//! latency N                (host drive only) each command planned N ticks before it applies
 //! ```
 
 use beam_sim::commanded::Step;
+use beam_sim::sensors::SensorFault;
 use beam_wire::command::{Command, Waypoint, MAX_WAYPOINTS};
 
 /// A script line that could not be read.
@@ -181,6 +189,78 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
                 }
                 Step::AmpFault(n as u32)
             }
+            "load" => {
+                nargs(1)?;
+                let nm = arg(1, "a torque in N m")?;
+                if !(-100.0..=100.0).contains(&nm) {
+                    return Err(err(format!("`load {nm}`: -100 to 100 N m")));
+                }
+                Step::Load(nm)
+            }
+            "sensor" => {
+                nargs(3)?;
+                let what = words.get(1).copied().unwrap_or("");
+                let how = words.get(2).copied().unwrap_or("");
+                let fault = match (what, how) {
+                    ("ok", "") => SensorFault::None,
+                    ("gauge", "ok") | ("encoder", "ok") => SensorFault::None,
+                    ("gauge", "stuck") => SensorFault::GaugeStuck,
+                    ("gauge", "zero") => SensorFault::GaugeZero,
+                    ("gauge", "reversed") => SensorFault::GaugeReversed,
+                    ("gauge", "gain") => {
+                        let k = arg(3, "a gain")?;
+                        if !(-1e3..=1e3).contains(&k) {
+                            return Err(err(format!("`sensor gauge gain {k}`: -1000 to 1000")));
+                        }
+                        SensorFault::GaugeGain(k)
+                    }
+                    ("gauge", "bias") => {
+                        let ue = arg(3, "a strain in microstrain")?;
+                        if !(-1e5..=1e5).contains(&ue) {
+                            return Err(err(format!(
+                                "`sensor gauge bias {ue}`: -100000 to 100000 ue"
+                            )));
+                        }
+                        SensorFault::GaugeBias(ue * 1e-6)
+                    }
+                    ("encoder", "stuck") => SensorFault::EncoderStuck,
+                    ("encoder", "jump") => {
+                        let n = arg(3, "a number of counts")?;
+                        if !(-1e9..=1e9).contains(&n) || n.fract() != 0.0 {
+                            return Err(err(format!(
+                                "`sensor encoder jump {n}`: a whole number of counts"
+                            )));
+                        }
+                        SensorFault::EncoderJump(n as i64)
+                    }
+                    _ => {
+                        return Err(err(format!(
+                            "`sensor {}`: `sensor gauge stuck|zero|reversed|gain K|bias UE|ok`, \
+                             `sensor encoder stuck|jump COUNTS|ok` or `sensor ok`",
+                            quoted(&words[1..].join(" "))
+                        )))
+                    }
+                };
+                let takes = match fault {
+                    SensorFault::GaugeGain(_)
+                    | SensorFault::GaugeBias(_)
+                    | SensorFault::EncoderJump(_) => 3,
+                    _ if what == "ok" => 1,
+                    _ => 2,
+                };
+                nargs(takes)?;
+                Step::Sensor(fault)
+            }
+            "latency" => {
+                nargs(1)?;
+                let n = arg(1, "ticks")?;
+                if !(0.0..=1000.0).contains(&n) || n.fract() != 0.0 {
+                    return Err(err(format!(
+                        "`latency {n}`: a whole number of ticks, 0 to 1000"
+                    )));
+                }
+                Step::Latency(n as u32)
+            }
             other => return Err(err(format!("unknown command `{}`", quoted(other)))),
         };
         steps.push(step);
@@ -225,11 +305,47 @@ mod tests {
             ("wait 1e9", "0 to"),
             ("jump 3", "unknown command"),
             ("move nan", "not a number"),
+            ("load", "needs"),
+            ("load 1e3", "-100 to 100"),
+            ("sensor gauge", "sensor gauge stuck"),
+            ("sensor gauge melted", "sensor gauge stuck"),
+            ("sensor gauge gain", "needs a gain"),
+            ("sensor gauge stuck 3", "at most 2"),
+            ("sensor encoder jump 1.5", "whole number"),
+            ("sensor ok now", "or `sensor ok`"),
+            ("latency 2.5", "whole number"),
         ] {
             let e = parse(&format!("status\n{text}")).unwrap_err();
             assert_eq!(e.line, 2, "{text}");
             assert!(e.message.contains(says), "{text}: {e}");
         }
+    }
+
+    #[test]
+    fn the_simulated_worlds_commands_read() {
+        let steps = parse(
+            "load 0.5\nload -2\nsensor gauge stuck\nsensor gauge zero\nsensor gauge reversed\n\
+             sensor gauge gain 3\nsensor gauge bias 1000\nsensor encoder stuck\n\
+             sensor encoder jump -40\nsensor gauge ok\nsensor ok\nlatency 5\n",
+        )
+        .unwrap();
+        assert_eq!(
+            steps,
+            vec![
+                Step::Load(0.5),
+                Step::Load(-2.0),
+                Step::Sensor(SensorFault::GaugeStuck),
+                Step::Sensor(SensorFault::GaugeZero),
+                Step::Sensor(SensorFault::GaugeReversed),
+                Step::Sensor(SensorFault::GaugeGain(3.0)),
+                Step::Sensor(SensorFault::GaugeBias(1000.0 * 1e-6)),
+                Step::Sensor(SensorFault::EncoderStuck),
+                Step::Sensor(SensorFault::EncoderJump(-40)),
+                Step::Sensor(SensorFault::None),
+                Step::Sensor(SensorFault::None),
+                Step::Latency(5),
+            ]
+        );
     }
 
     #[test]

@@ -149,9 +149,9 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         // Checked whole before anything reaches the drive.
         if let Some(i) = script
             .iter()
-            .position(|s| matches!(s, Step::Attach(_) | Step::AmpFault(_)))
+            .position(|s| !matches!(s, Step::Send(_) | Step::Wait(_) | Step::UntilDone { .. }))
         {
-            bail!("step {}: `attach` and `fault` act on the simulated beam; they have no meaning with --port (nothing was sent)", i + 1);
+            bail!("step {}: `attach`, `fault`, `load`, `sensor` and `latency` act on the simulated beam and drive; they have no meaning with --port (nothing was sent)", i + 1);
         }
         return run_port(a, port, &script);
     }
@@ -518,8 +518,12 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
                     drive.listen(Duration::from_secs_f64(*settle_s))?;
                 }
                 // Refused in `run`, before the port was opened.
-                Step::Attach(_) | Step::AmpFault(_) => {
-                    bail!("`attach` and `fault` have no meaning with --port")
+                Step::Attach(_)
+                | Step::AmpFault(_)
+                | Step::Load(_)
+                | Step::Sensor(_)
+                | Step::Latency(_) => {
+                    bail!("`attach`, `fault`, `load`, `sensor` and `latency` have no meaning with --port")
                 }
             }
         }

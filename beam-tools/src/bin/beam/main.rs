@@ -82,7 +82,8 @@ enum Command {
     Telemetry(telemetry_cmd::TelemetryArgs),
     /// Command a drive: moves, waypoints, payload, stop, fault clearing, status, from a
     /// script (`move DEG [S]`, `through DEG,DEG [S]`, `payload KG`, `stop`, `disable`,
-    /// `clear`, `status`, `stream N`, `wait S`, `done [S]`, `attach KG`, `fault N`; one per
+    /// `clear`, `status`, `stream N`, `wait S`, `done [S]`; on the simulated beam also
+    /// `attach KG`, `fault N`, `load NM`, `sensor gauge|encoder FAULT`, `latency N`; one per
     /// line), on the PIL firmware under QEMU (--pil) or the host (--sim).
     Drive(drive_cmd::DriveArgs),
     /// A model against a log: the beam driven by the logged hub angle, the hub by the logged
