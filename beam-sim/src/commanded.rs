@@ -9,7 +9,8 @@ use beam_wire::command::{Command, Outcome, Reply, Request};
 use model_core::commands::{CommandedController, Commander};
 use model_core::DriveTable;
 use model_core::{
-    BeamParams, Controller, LawKind, ModalModel, Mode, RawMeasurement, Spline, TorqueCommand,
+    BeamParams, Controller, FaultFlags, LawKind, ModalModel, Mode, RawMeasurement, Spline,
+    TorqueCommand,
 };
 
 /// One step of a script.
@@ -67,6 +68,8 @@ pub struct Tick {
     pub torque_nm: f32,
     /// Controller mode after the tick.
     pub mode: Mode,
+    /// Faults latched after the tick.
+    pub faults: FaultFlags,
 }
 
 /// What a commanded run produced.
@@ -297,6 +300,7 @@ pub fn run_script<const N: usize, D: CommandedDrive>(
             root_strain: plant.outputs(x).root_strain,
             torque_nm: cmd.torque_nm,
             mode: cmd.mode,
+            faults: cmd.faults,
         });
         // The load acts on the hub besides the motor, whose torque alone is limited.
         let tau = plant.saturate(cmd.torque_nm as f64) + world.load_nm;

@@ -194,9 +194,14 @@ fn a_missed_tick_holds_the_last_torque_and_changes_little() {
         mr.err_deg_t0_6,
         mn.err_deg_t0_6
     );
-    // Within 5 ue of the nominal residual (PD leaves 469 ue) and 0.25 deg of its hub error.
+    // Within 3 % (or 5 ue) of the nominal residual (PD leaves 469 ue) and 0.25 deg of its
+    // hub error.
     let d = |a: Option<f64>, b: Option<f64>| (a.unwrap() - b.unwrap()).abs();
-    assert!(d(mr.rms_root_strain_ue_0_4_0_6, mn.rms_root_strain_ue_0_4_0_6) < 5.0);
+    let nominal_ue = mn.rms_root_strain_ue_0_4_0_6.unwrap();
+    assert!(
+        d(mr.rms_root_strain_ue_0_4_0_6, mn.rms_root_strain_ue_0_4_0_6)
+            < (0.03 * nominal_ue).max(5.0)
+    );
     assert!(d(mr.err_deg_t0_6, mn.err_deg_t0_6) < 0.25);
     assert!(mr.err_deg_t2_0.unwrap() < 0.5);
 }

@@ -60,9 +60,10 @@ fn a_move_enables_the_amplifier_and_the_duty_follows_the_torque() {
     let [out, _] = sequence().unwrap();
     d.command(Command::Move(out)).unwrap();
     // The hub is held at the start (the counter does not move): the reference runs away
-    // from it and the controller pushes, positive, within the first few ticks.
+    // from it and the controller pushes, positive, within the first few ticks (and before
+    // the stall watch, STALL_TICKS without a count, takes it for a blocked hub).
     let mut pushed = false;
-    for _ in 0..50 {
+    for _ in 0..model_core::controller::STALL_TICKS {
         let t = d.tick();
         assert_eq!(t.mode, Mode::Slewing);
         assert!(b.en_high.get());

@@ -121,6 +121,9 @@ impl<'t, const LAWS: LawSet> CommanderIn<'t, LAWS> {
     pub fn prepare(&self, command: &Command, snap: &Snapshot) -> Result<Action, Refusal> {
         let ready = match snap.mode {
             Mode::Fault => Err(Refusal::Faulted),
+            // A gauge fault leaves the drive holding on its own law: no new move until the
+            // fault is cleared.
+            _ if !snap.faults.is_empty() => Err(Refusal::Faulted),
             Mode::Slewing => Err(Refusal::Busy),
             Mode::Idle | Mode::Holding => Ok(()),
         };
@@ -262,7 +265,8 @@ impl<'t, const LAWS: LawSet> CommanderIn<'t, LAWS> {
                 Ok(Outcome::Done)
             }
             Action::ClearFault => {
-                if ctl.mode() == Mode::Fault {
+                // (A gauge fault latches in Holding or Slewing: cleared all the same, to Idle.)
+                if ctl.mode() == Mode::Fault || !ctl.faults().is_empty() {
                     ctl.reset();
                 }
                 Ok(Outcome::Done)

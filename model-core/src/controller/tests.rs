@@ -67,7 +67,10 @@ fn a_hub_that_does_not_move_under_torque_trips_encoder_stuck() {
     c.step(&still);
     c.start_move().unwrap();
     // The reference runs away from a hub that never moves; once PD's torque passes a
-    // fifth of the limit, STALL_TICKS ticks without a count trip the fault.
+    // fifth of the limit, or the reference moves two counts a tick, STALL_TICKS ticks
+    // without a count trip the fault.
+    let s = *c.settings();
+    let spline = c.spline().clone();
     let outs: Vec<TorqueCommand> = (0..400).map(|_| c.step(&still)).collect();
     let k = outs
         .iter()
@@ -75,12 +78,15 @@ fn a_hub_that_does_not_move_under_torque_trips_encoder_stuck() {
         .expect("a hub that never moves must trip");
     assert_eq!(outs[k].faults, FaultFlags::ENCODER_STUCK);
     assert_eq!(outs[k].torque_nm, 0.0);
-    let strong = outs
-        .iter()
-        .position(|o| o.torque_nm.abs() >= STALL_TORQUE_FRACTION * 10.0)
-        .unwrap();
-    assert_eq!(k, strong + STALL_TICKS as usize - 1);
-    assert!(outs[strong..k].iter().all(|o| o.torque_nm.abs() >= 2.0));
+    // Tick j evaluates the reference at j ts (the start tick at 0).
+    let two_counts = 2.0 * s.encoder.rad_per_count() as f32 / s.ts_s;
+    let blind = |j: usize| {
+        outs[j].torque_nm.abs() >= STALL_TORQUE_FRACTION * 10.0
+            || spline.eval(j as f32 * s.ts_s).vel.abs() >= two_counts
+    };
+    let first = (0..k).find(|&j| blind(j)).unwrap();
+    assert_eq!(k, first + STALL_TICKS as usize - 1);
+    assert!((first..k).all(blind));
 }
 
 #[test]

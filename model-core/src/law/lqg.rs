@@ -50,11 +50,25 @@ pub struct ObserverState {
     pub reference: [f32; 2 * DESIGN_MODES],
     /// The torque the drive applied last tick, within the limit, N m.
     pub applied_nm: f32,
+    /// How far the encoder reads from what the observer predicted it would, rad: the
+    /// innovation's magnitude, low-passed over [`RESIDUAL_TICKS`] ticks.
+    pub residual_theta: f32,
+    /// How far the root gauge reads from the observer's prediction, strain, low-passed
+    /// likewise.
+    pub residual_strain: f32,
+    /// The root strain of the observer's estimate of the beam (its modes), strain: what the
+    /// beam is doing whatever the gauge says.
+    pub strain_estimate: f32,
     /// The observer has been started from the measured hub angle. While false, the rest of
     /// this state is as [`Default`] made it (a new or restarted [`LawState`]), and the next
     /// tick only sets the angle.
     pub(crate) observing: bool,
 }
+
+/// The span of the residuals' low-pass, ticks: a fault that lasts a tenth of this is seen,
+/// one tick of noise is averaged away.
+#[cfg(feature = "observer")]
+pub const RESIDUAL_TICKS: f32 = 10.0;
 
 /// An all-zero design, for the laws without an observer.
 #[cfg(feature = "observer")]
@@ -280,6 +294,11 @@ pub(super) fn observe(
     });
     let innov_theta = x.theta - head[0];
     let innov_strain = x.strain - d.strain_coef[0] * head[1] - d.strain_coef[1] * head[2];
+    // What each sensor says against what the observer expected it to say (the drive's
+    // sensor monitor reads these, `Controller::step_in`).
+    const K: f32 = 1.0 / RESIDUAL_TICKS;
+    state.residual_theta += K * (libm::fabsf(innov_theta) - state.residual_theta);
+    state.residual_strain += K * (libm::fabsf(innov_strain) - state.residual_strain);
     let w2_est = xo[RATE] * xo[RATE];
     let q_est = [xo[1], xo[2]];
     // The update, and the state the feedback holds it to: the hub on its reference, the
@@ -303,6 +322,8 @@ pub(super) fn observe(
             dot5(d.bd[i] * u_last, &d.ad[i], &xt) + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
         )
     });
+    state.strain_estimate =
+        d.strain_coef[0] * state.estimate[1] + d.strain_coef[1] * state.estimate[2];
     (u, sigma)
 }
 
