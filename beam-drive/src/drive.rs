@@ -113,6 +113,8 @@ pub struct Drive<const K: usize, Q, S, A> {
     actuator: A,
     /// A driver failed on the previous tick (reported to `step` on this one).
     driver_failed: bool,
+    /// The board runs on a clock it cannot drive on ([`Drive::report_clock_failure`]).
+    clock_failed: bool,
     tick: u32,
 }
 
@@ -132,6 +134,7 @@ where
             strain,
             actuator,
             driver_failed: false,
+            clock_failed: false,
             tick: 0,
         }
     }
@@ -157,6 +160,10 @@ where
             amp_fault,
             driver_fault: self.driver_failed || !adc_ok,
         };
+        if self.clock_failed {
+            // Every tick: `clear` cannot bring the torque back on a bad clock.
+            self.controller.latch(FaultFlags::CLOCK);
+        }
         let cmd = self.controller.step_in::<LAWS>(&raw);
         self.driver_failed = self.actuator.apply(&cmd).is_err();
         if self.driver_failed {
@@ -202,6 +209,13 @@ where
     /// a converter that did not configure at start-up.
     pub fn report_driver_failure(&mut self) {
         self.driver_failed = true;
+    }
+
+    /// Latches the clock fault from the next tick on, for good: the board's crystal did not
+    /// start and it runs on its internal oscillator (see the firmware's clock start-up). The
+    /// drive answers commands and reports, and never drives.
+    pub fn report_clock_failure(&mut self) {
+        self.clock_failed = true;
     }
 
     /// The controller (mode, faults, settings).
@@ -256,6 +270,10 @@ where
         let outcome = commander.apply(action, &mut self.controller);
         if clear {
             self.driver_failed = false;
+            // A bad clock is not cleared: the next status says so, not just the next tick.
+            if self.clock_failed {
+                self.controller.latch(FaultFlags::CLOCK);
+            }
         }
         outcome
     }

@@ -14,7 +14,7 @@ use beam_tools::identify::calibrate::read_log;
 use beam_tools::link::pil_host::{build_plugin, paths, run_pil, InsnProfile, PilConfig, PilDrive};
 use beam_tools::link::telemetry::{first_move, write_csv};
 use beam_wire::{encode, DriveError, DriveMessage, FrameError, HostMessage, SensorFrame};
-use common::shipped;
+use common::{qemu_present, shipped};
 use model_core::lqg::LqgDesign;
 use model_core::ControlLaw;
 use model_core::Controller;
@@ -29,25 +29,6 @@ fn build_controller_for(
     payload_kg: f32,
 ) -> Result<Controller<{ beam_drive::config::MOVE_KNOTS }>, beam_drive::config::BuildError> {
     beam_drive::config::build_controller_for(shipped(), kind, payload_kg)
-}
-
-fn qemu_present() -> bool {
-    let found = Command::new("qemu-system-arm")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !found {
-        // CI installs QEMU and sets this, so a missing QEMU there is a failure, not a skip.
-        assert!(
-            std::env::var_os("BEAM_REQUIRE_QEMU").is_none(),
-            "BEAM_REQUIRE_QEMU is set but qemu-system-arm is not installed"
-        );
-        eprintln!(
-            "\n\n!!!!!!!! SKIPPED: qemu-system-arm is not installed; the processor-in-the-loop \
-             tests did not run (apt-get install qemu-system-arm) !!!!!!!!\n"
-        );
-    }
-    found
 }
 
 /// Builds the PIL firmware once per test binary, both binaries (`cargo pil-fw` and `cargo

@@ -251,3 +251,66 @@ fn a_late_reply_to_an_earlier_run_is_never_taken_for_this_runs() {
     assert!(b_out.contains("Refused"), "{b_out}");
     assert_eq!(b.status.code(), Some(1), "{b_out}{b_err}");
 }
+
+#[test]
+fn typed_at_a_terminal_each_line_runs_as_it_comes_and_quit_ends_the_session() {
+    use std::io::BufRead;
+    let (master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
+    let path = slave.name().expect("the tty's name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let drive = {
+        let stop = stop.clone();
+        std::thread::spawn(move || fake_drive(master, stop, usize::MAX, Duration::ZERO, false))
+    };
+    let mut child = Command::new(env!("CARGO_BIN_EXE_beam"))
+        .args(["drive", "--port", &path, "--script", "-"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let (lines_tx, lines) = std::sync::mpsc::channel();
+    let stdout = child.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+        {
+            let _ = lines_tx.send(line);
+        }
+    });
+    // The first line's reply comes while the input is still open: it ran as it came.
+    stdin.write_all(b"status\n").unwrap();
+    stdin.flush().unwrap();
+    let first = lines
+        .recv_timeout(Duration::from_secs(10))
+        .expect("the reply to the first line, before any more input");
+    assert!(
+        first.contains("status") && first.contains("Status: idle"),
+        "{first}"
+    );
+    // A mistyped line is reported and skipped, not the end of the session.
+    stdin.write_all(b"mvoe 10\nstatus\n").unwrap();
+    stdin.flush().unwrap();
+    let second = lines.recv_timeout(Duration::from_secs(10)).unwrap();
+    assert!(second.contains("Status: idle"), "{second}");
+    // `quit` ends it; what follows is not run.
+    stdin.write_all(b"quit\nmove 10\n").unwrap();
+    drop(stdin);
+    let status = child.wait().unwrap();
+    let rest: Vec<String> = lines.try_iter().collect();
+    let mut stderr = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut stderr)
+        .unwrap();
+    stop.store(true, Ordering::Relaxed);
+    drive.join().unwrap();
+    drop(slave);
+    assert!(status.success(), "{stderr}");
+    assert!(stderr.contains("unknown command `mvoe`"), "{stderr}");
+    assert!(rest.iter().all(|l| !l.contains("move 10")), "{rest:?}");
+}

@@ -188,6 +188,9 @@ pub struct Status {
     pub law: Option<LawKind>,
     /// Telemetry decimation (0: off).
     pub stream_every: u16,
+    /// Ticks the controller has run since power-up (wraps): two replies apart show the loop
+    /// running.
+    pub ticks: u32,
 }
 
 #[cfg(test)]
@@ -247,6 +250,7 @@ mod tests {
             payload_kg: 0.05,
             law: Some(LawKind::SmcI),
             stream_every: u16::MAX,
+            ticks: u32::MAX,
         };
         for outcome in [
             Outcome::Moving { duration_s: 0.5 },

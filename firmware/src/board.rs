@@ -35,6 +35,10 @@ use stm32f4xx_hal::{
 
 /// The board's crystal, Hz.
 pub const HSE_HZ: u32 = 8_000_000;
+/// How many times the start-up reads the crystal's ready flag before it gives up on it:
+/// some 30 ms on the internal oscillator the MCU starts on (16 MHz, a few cycles a read),
+/// ten times the 2 ms a crystal of this kind takes to start.
+const HSE_READY_POLLS: u32 = 100_000;
 pub use beam_drive::config::{PWM_HZ, SYSCLK_HZ};
 /// Control loop rate, Hz (model-core's `DEFAULT_TS_S` is its period).
 pub use model_core::LOOP_HZ;
@@ -92,6 +96,9 @@ pub struct Board {
     pub link_rx: Rx1,
     /// The command handler, with the compiled-in law and payload.
     pub commander: firmware::BoardCommander,
+    /// The crystal started and the MCU runs at `SYSCLK_HZ` from it. If not, it runs on its
+    /// internal oscillator at 16 MHz, and the drive has the clock fault latched.
+    pub crystal: bool,
 }
 
 /// Why the board did not come up. The amplifier is never enabled in any of these cases.
@@ -112,12 +119,20 @@ pub enum BringUpError {
 /// driver fault latched, visible in telemetry; CLEAR FAULT cannot clear it for long, since an
 /// unconfigured converter never signals data and the stale-data check trips again.
 pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, BringUpError> {
-    let mut rcc = dp.RCC.freeze(
+    // A dead or missing crystal must not hang the board before it can say so (the HAL waits
+    // for it for ever): on the internal oscillator, without the PLL (whose lock is waited for
+    // too), the drive comes up, answers, and refuses torque with the clock fault latched.
+    // QEMU's STM32F405 has no clock controller at all, and takes this path.
+    let crystal = crystal_starts(&dp.RCC);
+    let clocks = if crystal {
         Config::hse(HSE_HZ.Hz())
             .sysclk(SYSCLK_HZ.Hz())
             .pclk1(42.MHz())
-            .pclk2(84.MHz()),
-    );
+            .pclk2(84.MHz())
+    } else {
+        Config::hsi()
+    };
+    let mut rcc = dp.RCC.freeze(clocks);
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
     let gpioc = dp.GPIOC.split(&mut rcc);
@@ -172,6 +187,9 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
     if adc_ok.is_err() {
         drive.report_driver_failure();
     }
+    if !crystal {
+        drive.report_clock_failure();
+    }
     let operator = Operator::new(
         gpioc.pc0.into_pull_up_input(),
         gpioc.pc1.into_pull_up_input(),
@@ -215,7 +233,22 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         link_tx,
         link_rx,
         commander,
+        crystal,
     })
+}
+
+/// Turns the crystal oscillator on and waits for it a bounded time ([`HSE_READY_POLLS`]);
+/// true if it is ready. If not, it is turned off again, and the MCU stays on its internal
+/// oscillator.
+fn crystal_starts(rcc: &pac::RCC) -> bool {
+    rcc.cr().modify(|_, w| w.hseon().set_bit());
+    for _ in 0..HSE_READY_POLLS {
+        if rcc.cr().read().hserdy().bit_is_set() {
+            return true;
+        }
+    }
+    rcc.cr().modify(|_, w| w.hseon().clear_bit());
+    false
 }
 
 /// Torque off through the registers, whatever state the HAL objects are in: enable low,
@@ -234,5 +267,24 @@ pub fn safe_state() {
         let tim1 = &*pac::TIM1::ptr();
         tim1.ccr1().write(|w| w.bits(0));
         tim1.bdtr().modify(|_, w| w.moe().clear_bit());
+    }
+}
+
+/// Clears a USART1 overrun whose byte is gone: ORE set with RXNE clear (a byte arrived while
+/// the last was unread, and that one has since been read). ORE raises the receive interrupt
+/// too, and with nothing to read the link's handler would return straight into it for ever:
+/// idle, where commands are answered, would never run again while the tick kept feeding the
+/// watchdog. Reading the data register after the status register clears it; with RXNE clear
+/// there is no byte to lose. For the link's interrupt, which owns the receiver.
+pub fn clear_link_overrun() {
+    // SAFETY: reads of USART1's status and data registers. The data register is read only
+    // when the status says there is no received byte in it, from the interrupt that owns the
+    // receiver (nothing else reads it).
+    unsafe {
+        let usart = &*pac::USART1::ptr();
+        let sr = usart.sr().read();
+        if sr.ore().bit_is_set() && sr.rxne().bit_is_clear() {
+            let _ = usart.dr().read();
+        }
     }
 }

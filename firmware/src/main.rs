@@ -64,6 +64,9 @@ mod app {
             Ok(b) => b,
             Err(e) => crate::halt(e),
         };
+        if !board.crystal {
+            defmt::error!("the crystal did not start: on the internal oscillator, torque refused (clock fault)");
+        }
         defmt::info!(
             "drive up: {} Hz loop, gains `{}` at {} kg, commands at {} baud",
             board::LOOP_HZ,
@@ -79,6 +82,7 @@ mod app {
             link_tx,
             link_rx,
             commander,
+            crystal: _,
         } = board;
         let (telemetry_in, telemetry_out) = cx.local.queue.split();
         (
@@ -127,6 +131,7 @@ mod app {
                     Err(_) => link.receive_byte(0),
                 }
             }
+            board::clear_link_overrun();
             while tx.is_tx_empty() {
                 match link.next_tx_byte() {
                     Some(b) => {
@@ -210,9 +215,11 @@ fn halt(e: board::BringUpError) -> ! {
 #[cfg(target_os = "none")]
 static PANICKING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
 
-/// Torque off first, then the report. Interrupts are masked, so the tick (which feeds the
-/// watchdog) no longer runs whichever context panicked (the tick, the link's interrupt or
-/// `idle`); the watchdog then resets the MCU, which comes back idle with torque off.
+/// Torque off first, then the report, then a system reset request. Interrupts are masked, so
+/// the tick (which feeds the watchdog) no longer runs whichever context panicked (the tick,
+/// the link's interrupt or `idle`): should the reset request not take, the watchdog resets
+/// the MCU. Either way it comes back idle with torque off. (QEMU models the reset request,
+/// not the watchdog.)
 #[cfg(target_os = "none")]
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
@@ -226,9 +233,7 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
             None => defmt::error!("panic"),
         }
     }
-    loop {
-        core::hint::spin_loop();
-    }
+    cortex_m::peripheral::SCB::sys_reset();
 }
 
 /// As the panic handler: torque off, then where it happened.
@@ -239,9 +244,7 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     if !PANICKING.swap(true, core::sync::atomic::Ordering::Relaxed) {
         defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
     }
-    loop {
-        core::hint::spin_loop();
-    }
+    cortex_m::peripheral::SCB::sys_reset();
 }
 
 #[cfg(target_os = "none")]

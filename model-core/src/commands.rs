@@ -309,6 +309,7 @@ impl<'t, const LAWS: LawSet> CommanderIn<'t, LAWS> {
             payload_kg: self.payload_kg,
             law: Some(self.kind),
             stream_every: self.stream_every,
+            ticks: ctl.uptime_ticks(),
         }
     }
 }

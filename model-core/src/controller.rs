@@ -99,9 +99,12 @@ impl FaultFlags {
     /// drift. Not a stop: the move and the hold go on on the drive's own law, which reads
     /// the encoder alone (the brake's), and no move is taken until it is cleared.
     pub const GAUGE: FaultFlags = FaultFlags(1 << 9);
+    /// The board's crystal did not start: it runs on its internal oscillator, whose
+    /// frequency is not good enough to drive on. Latched again every tick: torque stays off.
+    pub const CLOCK: FaultFlags = FaultFlags(1 << 10);
 
     /// Names for display, in bit order.
-    const NAMES: [&'static str; 10] = [
+    const NAMES: [&'static str; 11] = [
         "non-finite",
         "adc-rail",
         "encoder-jump",
@@ -112,6 +115,7 @@ impl FaultFlags {
         "encoder-stuck",
         "out-of-range",
         "gauge",
+        "clock",
     ];
 
     /// True when no fault is set.
@@ -283,6 +287,8 @@ struct State {
     strain: f32,
     /// The armed start is a brake ([`Controller::start_brake`]).
     brake_pending: bool,
+    /// Ticks run since the controller was built (wraps).
+    uptime: u32,
     /// The drive's own law ([`Brake`]) runs, not the table's: a brake, a move or hold after
     /// a gauge fault, or a hold handed over (cleared when the next move starts).
     braking: bool,
@@ -408,6 +414,9 @@ impl<const K: usize> Controller<K> {
         };
         let st = State {
             offset_code: s.strain_offset_code as f32,
+            // The encoder's count is zero where it was powered up, which is the home angle:
+            // a status or a plan before the first tick sees the hub there, not at 0.
+            theta: s.theta_home_rad,
             ..State::default()
         };
         Ok(Self { cfg, st })
@@ -479,6 +488,7 @@ impl<const K: usize> Controller<K> {
         let st = self.st;
         self.st = State {
             counter: st.counter,
+            uptime: st.uptime,
             omega: st.omega,
             theta: st.theta,
             strain: st.strain,
@@ -540,6 +550,22 @@ impl<const K: usize> Controller<K> {
             self.st.mode = Mode::Idle;
         }
         self.st.start_pending = false;
+    }
+
+    /// Latches `faults` from outside the tick (a board's clock that did not start): the
+    /// Fault mode, torque off, as a fault the tick found would.
+    pub fn latch(&mut self, faults: FaultFlags) {
+        if faults.is_empty() {
+            return;
+        }
+        self.st.faults.insert(faults);
+        self.st.mode = Mode::Fault;
+        self.st.start_pending = false;
+    }
+
+    /// Ticks run since the controller was built (wraps; a `reset` keeps counting).
+    pub fn uptime_ticks(&self) -> u32 {
+        self.st.uptime
     }
 
     /// The hub angle measured by the last tick, rad.
@@ -617,6 +643,7 @@ impl<const K: usize> Controller<K> {
     /// was built in it, `ControlLaw::try_build_in`): the board's tick, with no other law's
     /// arm in its dispatch.
     pub fn step_in<const LAWS: LawSet>(&mut self, raw: &RawMeasurement) -> TorqueCommand {
+        self.st.uptime = self.st.uptime.wrapping_add(1);
         let hub = self.estimate_hub(raw);
         let mut faults = hub.faults;
         faults.insert(self.take_start(hub.theta));

@@ -17,6 +17,7 @@
 //!                          (simulated beam only) the encoder fails so from now on
 //! sensor ok                (simulated beam only) both sensors read true again
 //! latency N                (host drive only) each command planned N ticks before it applies
+//! quit | exit              the script ends here
 //! ```
 
 use beam_sim::commanded::Step;
@@ -54,6 +55,9 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut steps = vec![];
     for (i, raw) in text.lines().enumerate() {
+        if is_quit(raw) {
+            break;
+        }
         let line = raw.split('#').next().unwrap_or("").trim();
         if line.is_empty() {
             continue;
@@ -268,6 +272,11 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
     Ok(steps)
 }
 
+/// `quit` or `exit` (alone on its line, a comment allowed): the script ends there.
+pub fn is_quit(line: &str) -> bool {
+    matches!(line.split('#').next().unwrap_or("").trim(), "quit" | "exit")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -319,6 +328,14 @@ mod tests {
             assert_eq!(e.line, 2, "{text}");
             assert!(e.message.contains(says), "{text}: {e}");
         }
+    }
+
+    #[test]
+    fn quit_ends_a_script_where_it_stands() {
+        let steps = parse("status\nquit  # done\nmove 10\nnonsense\n").unwrap();
+        assert_eq!(steps, vec![Step::Send(Command::Status)]);
+        assert_eq!(parse("exit\nmove 10\n").unwrap(), vec![]);
+        assert!(is_quit(" quit ") && is_quit("exit # bye") && !is_quit("quitter"));
     }
 
     #[test]

@@ -49,3 +49,23 @@ pub fn scratch(name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+/// Whether `qemu-system-arm` is installed. A test that needs it returns early when it is not,
+/// loudly; where `BEAM_REQUIRE_QEMU` is set (CI) a missing QEMU fails instead.
+pub fn qemu_present() -> bool {
+    let found = Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !found {
+        assert!(
+            std::env::var_os("BEAM_REQUIRE_QEMU").is_none(),
+            "BEAM_REQUIRE_QEMU is set but qemu-system-arm is not installed"
+        );
+        eprintln!(
+            "\n\n!!!!!!!! SKIPPED: qemu-system-arm is not installed; the emulated-firmware \
+             tests did not run (apt-get install qemu-system-arm) !!!!!!!!\n"
+        );
+    }
+    found
+}

@@ -462,3 +462,17 @@ fn the_mean_code_of_a_few_codes_is_exact() {
     assert_eq!(mean_code(0, 5), 0.0);
     assert_eq!(mean_code(-1, 4), -0.25);
 }
+
+#[test]
+fn before_its_first_tick_the_drive_reports_the_hub_at_home() {
+    // The counter's origin is where it was powered up, the home angle (-90 deg here): a
+    // status or a plan before any tick must see the hub there, not at 0.
+    let c = controller(Law::Pd(PdGains::BASELINE));
+    let home = c.settings().theta_home_rad;
+    assert_eq!(home, -core::f32::consts::FRAC_PI_2);
+    assert_eq!(c.snapshot().theta_rad, home);
+    assert_eq!(c.theta_rad(), home);
+    let mut c = c;
+    let out = c.step(&RawMeasurement::default());
+    assert_eq!(out.theta_rad, home);
+}

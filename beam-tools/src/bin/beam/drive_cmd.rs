@@ -144,17 +144,35 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
     if !(a.home.is_finite() && a.home.abs() <= 180.0) {
         bail!("--home {} must be within +-180 deg", a.home);
     }
-    let script = read_script(a)?;
     if let Some(port) = &a.port {
-        // Checked whole before anything reaches the drive.
-        if let Some(i) = script
-            .iter()
-            .position(|s| !matches!(s, Step::Send(_) | Step::Wait(_) | Step::UntilDone { .. }))
-        {
-            bail!("step {}: `attach`, `fault`, `load`, `sensor` and `latency` act on the simulated beam and drive; they have no meaning with --port (nothing was sent)", i + 1);
+        if a.script.as_deref() == Some(std::path::Path::new("-")) {
+            // A session: each line runs as it is typed (or piped), its replies printed at
+            // once; `quit` or the end of input ends it.
+            let lines = std::io::stdin().lines().map_while(Result::ok);
+            let batches = lines
+                .take_while(|l| !drive_script::is_quit(l))
+                .filter_map(
+                    |l| match drive_script::parse(&l).map_err(anyhow::Error::from) {
+                        Ok(steps) => match for_port(with_done_max(steps, a)) {
+                            Ok(steps) => Some(steps),
+                            Err(e) => {
+                                eprintln!("beam: {e:#} (not sent)");
+                                None
+                            }
+                        },
+                        Err(e) => {
+                            eprintln!("beam: {e:#} (not sent)");
+                            None
+                        }
+                    },
+                );
+            return run_port(a, port, batches, true);
         }
-        return run_port(a, port, &script);
+        // Checked whole before anything reaches the drive.
+        let script = for_port(read_script(a)?)?;
+        return run_port(a, port, std::iter::once(script), false);
     }
+    let script = read_script(a)?;
     let asked: f64 = script
         .iter()
         .map(|s| match s {
@@ -196,8 +214,12 @@ fn read_script(a: &DriveArgs) -> anyhow::Result<Vec<Step>> {
         }
         _ => bail!("give the commands: --script FILE (or -), --session, or on the command line"),
     };
-    // `done` waits as long as --done-max says.
-    let script: Vec<Step> = script
+    Ok(with_done_max(script, a))
+}
+
+/// `script` with each `done` waiting as long as --done-max says.
+fn with_done_max(script: Vec<Step>, a: &DriveArgs) -> Vec<Step> {
+    script
         .into_iter()
         .map(|step| match step {
             Step::UntilDone { settle_s, .. } => Step::UntilDone {
@@ -206,7 +228,17 @@ fn read_script(a: &DriveArgs) -> anyhow::Result<Vec<Step>> {
             },
             other => other,
         })
-        .collect();
+        .collect()
+}
+
+/// `script`, if a drive on a port can run it: the simulated world's steps are refused.
+fn for_port(script: Vec<Step>) -> anyhow::Result<Vec<Step>> {
+    if let Some(i) = script
+        .iter()
+        .position(|s| !matches!(s, Step::Send(_) | Step::Wait(_) | Step::UntilDone { .. }))
+    {
+        bail!("step {}: `attach`, `fault`, `load`, `sensor` and `latency` act on the simulated beam and drive; they have no meaning with --port (nothing was sent)", i + 1);
+    }
     Ok(script)
 }
 
@@ -373,7 +405,7 @@ fn outcome_text(outcome: &Outcome) -> String {
         n => format!("every {n} tick(s)"),
     };
     format!(
-        "Status: {mode}; faults {}; hub {:.3} deg at {:.2} deg/s; root strain {:.1} ue; move {:.3} of {:.3} s; payload {} kg; law {}; stream {stream}",
+        "Status: {mode}; faults {}; hub {:.3} deg at {:.2} deg/s; root strain {:.1} ue; move {:.3} of {:.3} s; payload {} kg; law {}; stream {stream}; up {} ticks",
         model_core::FaultFlags(s.faults),
         s.theta_rad.to_degrees(),
         s.omega_rad_s.to_degrees(),
@@ -382,6 +414,7 @@ fn outcome_text(outcome: &Outcome) -> String {
         s.move_duration_s,
         s.payload_kg,
         s.law.map_or("none", |l| l.name()),
+        s.ticks,
     )
 }
 
@@ -478,8 +511,14 @@ fn move_results(run: &CommandedRun, settle: &SettleSpec) -> Vec<MoveResult> {
         .collect()
 }
 
-/// The script on a drive at the end of a serial port.
-fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
+/// The script on a drive at the end of a serial port, in batches (the whole script, or one
+/// per line typed); with `live`, each reply is printed as it comes.
+fn run_port(
+    a: &DriveArgs,
+    port: &str,
+    batches: impl Iterator<Item = Vec<Step>>,
+    live: bool,
+) -> anyhow::Result<()> {
     use beam_tools::link::serial_drive::{write_records_csv, SerialDrive};
     use std::time::{Duration, Instant};
     let timeout = Duration::from_millis(a.reply_timeout_ms);
@@ -493,12 +532,17 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
     }
     let start = Instant::now();
     let mut exchanges = vec![];
-    let mut steps = || -> anyhow::Result<()> {
-        for step in script {
-            match step {
+    let live = live && !a.json;
+    let steps = || -> anyhow::Result<()> {
+        for step in batches.flatten() {
+            match &step {
                 Step::Send(command) => {
                     let (request, reply) = drive.request(command.clone())?;
-                    exchanges.push((start.elapsed().as_secs_f64(), request, reply));
+                    let t = start.elapsed().as_secs_f64();
+                    if live {
+                        print_exchange(t, &request, &reply.outcome);
+                    }
+                    exchanges.push((t, request, reply));
                 }
                 Step::Wait(s) => drive.listen(Duration::from_secs_f64(*s))?,
                 Step::UntilDone { settle_s, max_s } => {
@@ -531,7 +575,7 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
     };
     if let Err(e) = steps() {
         // What already ran on the drive, then the error.
-        for (t, request, reply) in &exchanges {
+        for (t, request, reply) in exchanges.iter().filter(|_| !live) {
             print_exchange(*t, request, &reply.outcome);
         }
         return Err(e.context(format!(
@@ -584,7 +628,7 @@ fn run_port(a: &DriveArgs, port: &str, script: &[Step]) -> anyhow::Result<()> {
             })
         );
     } else {
-        for (t, request, reply) in &exchanges {
+        for (t, request, reply) in exchanges.iter().filter(|_| !live) {
             print_exchange(*t, request, &reply.outcome);
         }
         println!(
@@ -630,6 +674,7 @@ mod tests {
             payload_kg: 0.025,
             law: Some(LawKind::Smc),
             stream_every: 0,
+            ticks: 12_345,
         });
         let text = outcome_text(&status);
         assert!(text.starts_with("Status: fault; faults "), "{text}");
@@ -642,6 +687,7 @@ mod tests {
             "payload 0.025 kg",
             "law smc",
             "stream off",
+            "up 12345 ticks",
         ] {
             assert!(text.contains(word), "{word}: {text}");
         }
