@@ -62,83 +62,132 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
         if line.is_empty() {
             continue;
         }
-        let err = |message: String| ScriptError {
-            line: i + 1,
+        let line = Line {
+            no: i + 1,
+            words: line.split_whitespace().collect(),
+        };
+        steps.push(line.step()?);
+    }
+    Ok(steps)
+}
+
+/// One line of a script, in words (at least one), and its number.
+struct Line<'a> {
+    no: usize,
+    words: Vec<&'a str>,
+}
+
+impl Line<'_> {
+    /// An error on this line.
+    fn err(&self, message: String) -> ScriptError {
+        ScriptError {
+            line: self.no,
             message,
-        };
-        let words: Vec<&str> = line.split_whitespace().collect();
-        let arg = |k: usize, what: &str| -> Result<f64, ScriptError> {
-            let w = words
-                .get(k)
-                .ok_or_else(|| err(format!("`{}` needs {what}", quoted(words[0]))))?;
-            w.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| err(format!("`{}` is not a number ({what})", quoted(w))))
-        };
-        let time = |k: usize| -> Result<Option<f32>, ScriptError> {
-            match words.get(k) {
-                None => Ok(None),
-                Some(_) => {
-                    let t = arg(k, "a time in s")?;
-                    if t > 0.0 {
-                        Ok(Some(t as f32))
-                    } else {
-                        Err(err(format!("time {t} must be positive")))
-                    }
-                }
-            }
-        };
-        let nargs = |max: usize| {
-            if words.len() > max + 1 {
-                Err(err(format!(
-                    "`{}` takes at most {max} arguments",
-                    quoted(words[0])
-                )))
-            } else {
-                Ok(())
-            }
-        };
-        let step = match words[0] {
+        }
+    }
+
+    /// Word `k` as a finite number (`what` says what it should be).
+    fn arg(&self, k: usize, what: &str) -> Result<f64, ScriptError> {
+        let w = self
+            .words
+            .get(k)
+            .ok_or_else(|| self.err(format!("`{}` needs {what}", quoted(self.words[0]))))?;
+        w.parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| self.err(format!("`{}` is not a number ({what})", quoted(w))))
+    }
+
+    /// Word `k`, if there, as a positive time in s.
+    fn time(&self, k: usize) -> Result<Option<f32>, ScriptError> {
+        if self.words.get(k).is_none() {
+            return Ok(None);
+        }
+        let t = self.arg(k, "a time in s")?;
+        if t > 0.0 {
+            Ok(Some(t as f32))
+        } else {
+            Err(self.err(format!("time {t} must be positive")))
+        }
+    }
+
+    /// At most `max` words after the command.
+    fn nargs(&self, max: usize) -> Result<(), ScriptError> {
+        if self.words.len() > max + 1 {
+            Err(self.err(format!(
+                "`{}` takes at most {max} arguments",
+                quoted(self.words[0])
+            )))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Word `k` as a number within `range` (`what` says what it should be; `whole`: an
+    /// integer), or an error quoting the line's command and the range.
+    fn number_in(
+        &self,
+        k: usize,
+        what: &str,
+        range: core::ops::RangeInclusive<f64>,
+        whole: bool,
+    ) -> Result<f64, ScriptError> {
+        let x = self.arg(k, what)?;
+        if !range.contains(&x) || (whole && x.fract() != 0.0) {
+            return Err(self.err(format!(
+                "`{} {x}`: {}{} to {}",
+                self.words[..k].join(" "),
+                if whole { "a whole number, " } else { "" },
+                range.start(),
+                range.end()
+            )));
+        }
+        Ok(x)
+    }
+
+    /// The step this line asks for.
+    fn step(&self) -> Result<Step, ScriptError> {
+        let words = &self.words;
+        Ok(match words[0] {
             "move" => {
-                nargs(2)?;
+                self.nargs(2)?;
                 Step::Send(Command::MoveTo {
-                    to_rad: (arg(1, "an angle in deg")?.to_radians()) as f32,
-                    time_s: time(2)?,
+                    to_rad: (self.arg(1, "an angle in deg")?.to_radians()) as f32,
+                    time_s: self.time(2)?,
                 })
             }
             "through" => {
-                nargs(2)?;
+                self.nargs(2)?;
                 let list = words
                     .get(1)
-                    .ok_or_else(|| err("`through` needs angles, DEG,DEG,...".into()))?;
+                    .ok_or_else(|| self.err("`through` needs angles, DEG,DEG,...".into()))?;
                 let mut waypoints = heapless::Vec::<Waypoint, MAX_WAYPOINTS>::new();
                 for a in list.split(',') {
                     let deg: f64 = a
                         .parse()
                         .ok()
                         .filter(|x: &f64| x.is_finite())
-                        .ok_or_else(|| err(format!("`{}` is not an angle", quoted(a))))?;
+                        .ok_or_else(|| self.err(format!("`{}` is not an angle", quoted(a))))?;
                     waypoints
                         .push(Waypoint {
                             rad: deg.to_radians() as f32,
                             at_s: None,
                         })
-                        .map_err(|_| err(format!("at most {MAX_WAYPOINTS} waypoints")))?;
+                        .map_err(|_| self.err(format!("at most {MAX_WAYPOINTS} waypoints")))?;
                 }
                 Step::Send(Command::MoveThrough {
                     waypoints,
-                    time_s: time(2)?,
+                    time_s: self.time(2)?,
                 })
             }
             "payload" => {
-                nargs(1)?;
+                self.nargs(1)?;
                 Step::Send(Command::SetPayload {
-                    kg: arg(1, "a mass in kg")? as f32,
+                    kg: self.arg(1, "a mass in kg")? as f32,
                 })
             }
             "stop" | "disable" | "clear" | "status" => {
-                nargs(0)?;
+                self.nargs(0)?;
                 Step::Send(match words[0] {
                     "stop" => Command::Stop,
                     "disable" => Command::Disable,
@@ -147,129 +196,81 @@ pub fn parse(text: &str) -> Result<Vec<Step>, ScriptError> {
                 })
             }
             "stream" => {
-                nargs(1)?;
-                let n = arg(1, "ticks per record")?;
-                if !(0.0..=u16::MAX as f64).contains(&n) || n.fract() != 0.0 {
-                    return Err(err(format!("`stream {n}`: a whole number 0..=65535")));
-                }
+                self.nargs(1)?;
+                let n = self.number_in(1, "ticks per record", 0.0..=u16::MAX as f64, true)?;
                 Step::Send(Command::Stream { every: n as u16 })
             }
             "wait" => {
-                nargs(1)?;
-                let s = arg(1, "seconds")?;
-                if !(0.0..=MAX_WAIT_S).contains(&s) {
-                    return Err(err(format!("`wait {s}`: 0 to {MAX_WAIT_S} s")));
-                }
-                Step::Wait(s)
+                self.nargs(1)?;
+                Step::Wait(self.number_in(1, "seconds", 0.0..=MAX_WAIT_S, false)?)
             }
             "done" => {
-                nargs(1)?;
+                self.nargs(1)?;
                 let settle_s = if words.len() > 1 {
-                    arg(1, "seconds")?
+                    self.number_in(1, "seconds", 0.0..=MAX_WAIT_S, false)?
                 } else {
                     0.4
                 };
-                if !(0.0..=MAX_WAIT_S).contains(&settle_s) {
-                    return Err(err(format!("`done {settle_s}`: 0 to {MAX_WAIT_S} s")));
-                }
                 Step::UntilDone {
                     settle_s,
                     max_s: 60.0,
                 }
             }
             "attach" => {
-                nargs(1)?;
-                let kg = arg(1, "a mass in kg")?;
-                if !(0.0..=1.0).contains(&kg) {
-                    return Err(err(format!("`attach {kg}`: 0 to 1 kg")));
-                }
-                Step::Attach(kg)
+                self.nargs(1)?;
+                Step::Attach(self.number_in(1, "a mass in kg", 0.0..=1.0, false)?)
             }
             "fault" => {
-                nargs(1)?;
-                let n = arg(1, "ticks")?;
-                if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
-                    return Err(err(format!("`fault {n}`: a whole number of ticks")));
-                }
-                Step::AmpFault(n as u32)
+                self.nargs(1)?;
+                Step::AmpFault(self.number_in(1, "ticks", 0.0..=1e6, true)? as u32)
             }
             "load" => {
-                nargs(1)?;
-                let nm = arg(1, "a torque in N m")?;
-                if !(-100.0..=100.0).contains(&nm) {
-                    return Err(err(format!("`load {nm}`: -100 to 100 N m")));
-                }
-                Step::Load(nm)
+                self.nargs(1)?;
+                Step::Load(self.number_in(1, "a torque in N m", -100.0..=100.0, false)?)
             }
-            "sensor" => {
-                nargs(3)?;
-                let what = words.get(1).copied().unwrap_or("");
-                let how = words.get(2).copied().unwrap_or("");
-                let fault = match (what, how) {
-                    ("ok", "") => SensorFault::None,
-                    ("gauge", "ok") | ("encoder", "ok") => SensorFault::None,
-                    ("gauge", "stuck") => SensorFault::GaugeStuck,
-                    ("gauge", "zero") => SensorFault::GaugeZero,
-                    ("gauge", "reversed") => SensorFault::GaugeReversed,
-                    ("gauge", "gain") => {
-                        let k = arg(3, "a gain")?;
-                        if !(-1e3..=1e3).contains(&k) {
-                            return Err(err(format!("`sensor gauge gain {k}`: -1000 to 1000")));
-                        }
-                        SensorFault::GaugeGain(k)
-                    }
-                    ("gauge", "bias") => {
-                        let ue = arg(3, "a strain in microstrain")?;
-                        if !(-1e5..=1e5).contains(&ue) {
-                            return Err(err(format!(
-                                "`sensor gauge bias {ue}`: -100000 to 100000 ue"
-                            )));
-                        }
-                        SensorFault::GaugeBias(ue * 1e-6)
-                    }
-                    ("encoder", "stuck") => SensorFault::EncoderStuck,
-                    ("encoder", "jump") => {
-                        let n = arg(3, "a number of counts")?;
-                        if !(-1e9..=1e9).contains(&n) || n.fract() != 0.0 {
-                            return Err(err(format!(
-                                "`sensor encoder jump {n}`: a whole number of counts"
-                            )));
-                        }
-                        SensorFault::EncoderJump(n as i64)
-                    }
-                    _ => {
-                        return Err(err(format!(
-                            "`sensor {}`: `sensor gauge stuck|zero|reversed|gain K|bias UE|ok`, \
-                             `sensor encoder stuck|jump COUNTS|ok` or `sensor ok`",
-                            quoted(&words[1..].join(" "))
-                        )))
-                    }
-                };
-                let takes = match fault {
-                    SensorFault::GaugeGain(_)
-                    | SensorFault::GaugeBias(_)
-                    | SensorFault::EncoderJump(_) => 3,
-                    _ if what == "ok" => 1,
-                    _ => 2,
-                };
-                nargs(takes)?;
-                Step::Sensor(fault)
-            }
+            "sensor" => Step::Sensor(self.sensor_fault()?),
             "latency" => {
-                nargs(1)?;
-                let n = arg(1, "ticks")?;
-                if !(0.0..=1000.0).contains(&n) || n.fract() != 0.0 {
-                    return Err(err(format!(
-                        "`latency {n}`: a whole number of ticks, 0 to 1000"
-                    )));
-                }
-                Step::Latency(n as u32)
+                self.nargs(1)?;
+                Step::Latency(self.number_in(1, "ticks", 0.0..=1000.0, true)? as u32)
             }
-            other => return Err(err(format!("unknown command `{}`", quoted(other)))),
-        };
-        steps.push(step);
+            other => return Err(self.err(format!("unknown command `{}`", quoted(other)))),
+        })
     }
-    Ok(steps)
+
+    /// `sensor gauge|encoder FAULT [N]` or `sensor ok`.
+    fn sensor_fault(&self) -> Result<SensorFault, ScriptError> {
+        let what = self.words.get(1).copied().unwrap_or("");
+        let how = self.words.get(2).copied().unwrap_or("");
+        let (fault, takes) = match (what, how) {
+            ("ok", "") => (SensorFault::None, 1),
+            ("gauge" | "encoder", "ok") => (SensorFault::None, 2),
+            ("gauge", "stuck") => (SensorFault::GaugeStuck, 2),
+            ("gauge", "zero") => (SensorFault::GaugeZero, 2),
+            ("gauge", "reversed") => (SensorFault::GaugeReversed, 2),
+            ("gauge", "gain") => (
+                SensorFault::GaugeGain(self.number_in(3, "a gain", -1e3..=1e3, false)?),
+                3,
+            ),
+            ("gauge", "bias") => {
+                let ue = self.number_in(3, "a strain in microstrain", -1e5..=1e5, false)?;
+                (SensorFault::GaugeBias(ue * 1e-6), 3)
+            }
+            ("encoder", "stuck") => (SensorFault::EncoderStuck, 2),
+            ("encoder", "jump") => {
+                let n = self.number_in(3, "a number of counts", -1e9..=1e9, true)?;
+                (SensorFault::EncoderJump(n as i64), 3)
+            }
+            _ => {
+                return Err(self.err(format!(
+                    "`sensor {}`: `sensor gauge stuck|zero|reversed|gain K|bias UE|ok`, \
+                     `sensor encoder stuck|jump COUNTS|ok` or `sensor ok`",
+                    quoted(&self.words[1..].join(" "))
+                )))
+            }
+        };
+        self.nargs(takes)?;
+        Ok(fault)
+    }
 }
 
 /// `quit` or `exit` (alone on its line, a comment allowed): the script ends there.

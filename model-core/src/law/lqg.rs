@@ -51,7 +51,7 @@ pub struct ObserverState {
     /// The torque the drive applied last tick, within the limit, N m.
     pub applied_nm: f32,
     /// How far the encoder reads from what the observer predicted it would, rad: the
-    /// innovation's magnitude, low-passed over [`RESIDUAL_TICKS`] ticks.
+    /// innovation's magnitude, low-passed over ten ticks.
     pub residual_theta: f32,
     /// How far the root gauge reads from the observer's prediction, strain, low-passed
     /// likewise.
