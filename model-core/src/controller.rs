@@ -840,8 +840,10 @@ impl<const K: usize> Controller<K> {
     /// Stage 6: the law's torque at `reference` (zero without one), a non-finite torque
     /// latched as a fault, saturation at the limit, and the stall watch: no encoder count
     /// (`delta` 0) for [`STALL_TICKS`] with the reference moving, under at least
-    /// [`STALL_TORQUE_FRACTION`] of the limit, latches [`FaultFlags::ENCODER_STUCK`]. Returns
-    /// the torque to apply.
+    /// [`STALL_TORQUE_FRACTION`] of the limit or behind a reference that moves two counts a
+    /// tick, latches [`FaultFlags::ENCODER_STUCK`]. Before the law, the drive's own law takes
+    /// a weak law's hold over ([`HOLD_HANDOVER_RAD`]); after it, the observer laws' sensor
+    /// monitor runs. Returns the torque to apply.
     #[inline(always)]
     fn command<const LAWS: LawSet>(
         &mut self,
