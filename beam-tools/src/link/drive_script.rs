@@ -88,10 +88,10 @@ impl Line<'_> {
 
     /// Word `k` as a finite number (`what` says what it should be).
     fn arg(&self, k: usize, what: &str) -> Result<f64, ScriptError> {
-        let w = self
-            .words
-            .get(k)
-            .ok_or_else(|| self.err(format!("`{}` needs {what}", quoted(self.words[0]))))?;
+        let w = self.words.get(k).ok_or_else(|| {
+            let command = self.words[..k.min(self.words.len())].join(" ");
+            self.err(format!("`{}` needs {what}", quoted(&command)))
+        })?;
         w.parse::<f64>()
             .ok()
             .filter(|x| x.is_finite())
@@ -319,7 +319,7 @@ mod tests {
             ("load 1e3", "-100 to 100"),
             ("sensor gauge", "sensor gauge stuck"),
             ("sensor gauge melted", "sensor gauge stuck"),
-            ("sensor gauge gain", "needs a gain"),
+            ("sensor gauge gain", "`sensor gauge gain` needs a gain"),
             ("sensor gauge stuck 3", "at most 2"),
             ("sensor encoder jump 1.5", "whole number"),
             ("sensor ok now", "or `sensor ok`"),
