@@ -21,6 +21,13 @@ use crate::measure::{
 use crate::spline::{RefPoint, Spline};
 use core::fmt;
 
+mod brake;
+mod monitor;
+pub use brake::{Brake, HOLD_HANDOVER_RAD};
+#[cfg(feature = "observer")]
+use monitor::watch_sensors;
+pub use monitor::{ENCODER_RESIDUAL, GAUGE_RESIDUAL};
+
 /// One tick's raw sensor readings, exactly as the hardware gives them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -934,121 +941,6 @@ impl<const K: usize> Controller<K> {
             torque = 0.0;
         }
         torque
-    }
-}
-
-/// How far the root gauge may read from the observer's prediction (the innovation's
-/// magnitude, low-passed over ten ticks) before it is taken as failed, strain (70 ue). The
-/// shipped observer laws on beams 20 % off the model in stiffness or density stay below
-/// 53 ue through 15-180 deg moves and a 0.5 N m load; a gauge read as zero, stuck, reversed,
-/// three times too high or 1000 ue off goes past it within a few ticks of a move
-/// (docs/faults.md).
-pub const GAUGE_RESIDUAL: f32 = 70e-6;
-
-/// How far the encoder may read from the observer's prediction, low-passed likewise, rad
-/// (20 mrad; beams 20 % off the model stay below 13 mrad).
-pub const ENCODER_RESIDUAL: f32 = 20e-3;
-
-/// The sensor monitor of the observer laws: what their observer makes of the sensors this
-/// tick (zero residuals for the laws without one, which pass). A residual past its bound is
-/// blamed on the encoder when the encoder has not counted for 5 ticks while the reference
-/// moves (a stuck encoder: [`FaultFlags::ENCODER_STUCK`]), on the gauge otherwise
-/// ([`FaultFlags::GAUGE`]); and the beam's strain as the observer estimates it, whatever the
-/// gauge says, is held to the trip ([`FaultFlags::OVER_STRAIN`]).
-#[cfg(feature = "observer")]
-#[inline(always)]
-fn watch_sensors(
-    law: &LawState,
-    s: &ControllerSettings,
-    still_ticks: u32,
-    r: &RefPoint,
-) -> FaultFlags {
-    let o = &law.lqg;
-    let mut faults = FaultFlags::default();
-    if o.residual_strain > GAUGE_RESIDUAL || o.residual_theta > ENCODER_RESIDUAL {
-        if still_ticks >= 5 && r.vel != 0.0 {
-            faults.insert(FaultFlags::ENCODER_STUCK);
-        } else {
-            faults.insert(FaultFlags::GAUGE);
-        }
-    }
-    if libm::fabsf(o.strain_estimate) > s.max_strain {
-        faults.insert(FaultFlags::OVER_STRAIN);
-    }
-    faults
-}
-
-/// The drive's own law: the brake ([`Controller::start_brake`]), the fallback on a failed
-/// gauge ([`FaultFlags::GAUGE`]) and the hold of the sliding-mode laws that hold weakly
-/// ([`HOLD_HANDOVER_RAD`]). `tau = J theta_r'' + Kp (theta_r - theta) + Kd (theta_r' -
-/// theta')` on the hub alone, with `J` the rigid inertia (hub, beam,
-/// payload) of the law in use and the PD placed at [`Brake::BANDWIDTH_RAD_S`] with damping
-/// [`Brake::DAMPING`] on it. A PD on the hub's own angle and rate, where the torque acts, is
-/// stable with any flexible beam on the hub (the collocated loop is passive), and it needs no
-/// state that a hub turning fast could leave behind.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Brake {
-    /// Rigid inertia, kg m^2.
-    pub inertia: f32,
-    /// Proportional gain, N m/rad.
-    pub kp: f32,
-    /// Derivative gain, N m s/rad.
-    pub kd: f32,
-    /// The drive takes the hold over from the law at the target ([`HOLD_HANDOVER_RAD`]).
-    pub takes_hold: bool,
-}
-
-/// How close to a held target the hub must be (and slower than [`REST_RAD_S`]) before the
-/// drive's own law ([`Brake`]) takes the hold over from a law that holds weakly, rad
-/// (0.05 deg, the settle band). The paper's SMC and the strain SMC push back with at most
-/// `Jeff A` at rest, about 0.3 N m with the shipped rows: under 0.5 N m they crept
-/// 17-19 deg. Rows designed with the
-/// hold test instead (`beam optimize --load-hold 0.5`) either threw the beam out of the
-/// model on a quarter of the drawn beams or rang at 240 ue after the move. Handing over at
-/// the target leaves the law's move and settling as they were and holds 0.5 N m within
-/// 0.8 deg (docs/results.md).
-pub const HOLD_HANDOVER_RAD: f32 = 0.05 * core::f32::consts::PI / 180.0;
-
-impl Brake {
-    /// The PD's natural frequency on the rigid inertia, rad/s (6.4 Hz): on the aluminium
-    /// beam (0.027 kg m^2) Kp 43 N m/rad and Kd 1.5 N m s/rad, the neighbourhood of the
-    /// feedforward-plus-PD rows that recover a coasting hub.
-    pub const BANDWIDTH_RAD_S: f32 = 40.0;
-    /// The PD's damping ratio on the rigid inertia.
-    pub const DAMPING: f32 = 0.7;
-
-    /// The drive's own law beside `law`: on its rigid inertia, and taking the hold over from
-    /// the sliding-mode laws without integral action or an observer (smc, smc-strain). Not
-    /// from the PD baseline: it stays the paper's Kp 20 N m/rad spring, the reference the
-    /// others are compared with and the law calibration logs are taken under.
-    pub fn for_law(law: &ControlLaw) -> Self {
-        use crate::law::LawKind;
-        Self {
-            takes_hold: matches!(law.law().kind(), LawKind::Smc | LawKind::SmcStrain),
-            ..Self::for_inertia(law.rigid_inertia())
-        }
-    }
-
-    /// The brake for a hub of rigid inertia `inertia` (kg m^2; not positive or not finite
-    /// gives a brake of no torque, which the laws' validation rules out); it takes no hold.
-    pub fn for_inertia(inertia: f32) -> Self {
-        let j = if inertia.is_finite() && inertia > 0.0 {
-            inertia
-        } else {
-            0.0
-        };
-        Self {
-            inertia: j,
-            kp: j * Self::BANDWIDTH_RAD_S * Self::BANDWIDTH_RAD_S,
-            kd: 2.0 * Self::DAMPING * j * Self::BANDWIDTH_RAD_S,
-            takes_hold: false,
-        }
-    }
-
-    /// The brake's torque at `r` for the hub `x`, N m (before the drive's limit).
-    #[inline(always)]
-    fn torque_nm(&self, x: &Estimate, r: &RefPoint) -> f32 {
-        self.inertia * r.acc + self.kp * (r.pos - x.theta) + self.kd * (r.vel - x.omega)
     }
 }
 
