@@ -130,7 +130,7 @@ fn every_law_survives_every_sensor_fault_mid_move_and_in_hold() {
                         let o = outcome(&r, at, target_deg(kind));
                         rows.push(format!(
                             "| {kind} | {name} | {when} | {} | {} | {:.0} ue | {} ms | {:?}, {:.2} deg off |",
-                            o.latched_s.map_or("-".into(), |s| format!("{:.3} s", s)),
+                            o.latched_s.map_or("-".into(), |s| format!("{:.3} s", s.max(0.0))),
                             o.faults,
                             o.peak_strain_ue,
                             o.longest_at_limit_ms,
