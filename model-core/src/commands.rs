@@ -169,10 +169,12 @@ impl<'t, const LAWS: LawSet> CommanderIn<'t, LAWS> {
                 }))
             }
             Command::Stop => {
-                // Never refused while the hub turns, in any mode but Fault (whose torque
-                // stays off until `clear`): a move of this handler's is cut on its own plan,
-                // anything else (a hub coasting with the torque off, a hold that lost its
-                // hub, a move this handler did not plan) is braked by the drive's brake.
+                // Refused while the hub turns only in Fault (whose torque stays off until
+                // `clear`): a move of this handler's is cut on its own plan, anything else (a
+                // hub coasting with the torque off, a hold that lost its hub, a move the
+                // handler has no plan for, one whose cut cannot be planned) is braked by the
+                // drive's brake. (A button's move started after a commanded one is taken for
+                // that one here, and `apply` refuses the cut `NotMoving`.)
                 if snap.mode == Mode::Fault {
                     return Err(Refusal::Faulted);
                 }
