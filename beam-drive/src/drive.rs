@@ -115,7 +115,6 @@ pub struct Drive<const K: usize, Q, S, A> {
     driver_failed: bool,
     /// The board runs on a clock it cannot drive on ([`Drive::report_clock_failure`]).
     clock_failed: bool,
-    tick: u32,
 }
 
 impl<const K: usize, Q, S, A> Drive<K, Q, S, A>
@@ -135,7 +134,6 @@ where
             actuator,
             driver_failed: false,
             clock_failed: false,
-            tick: 0,
         }
     }
 
@@ -171,8 +169,9 @@ where
             // tick latches the driver fault.
             let _ = self.actuator.disable();
         }
-        let t = Telemetry {
-            tick: self.tick,
+        Telemetry {
+            // The controller counts its ticks (from 1 after the first): this one's number.
+            tick: self.controller.uptime_ticks().wrapping_sub(1),
             encoder_raw,
             strain_code: sample.code,
             torque_nm: if self.driver_failed {
@@ -185,9 +184,7 @@ where
             strain: cmd.strain,
             mode: cmd.mode,
             faults: cmd.faults,
-        };
-        self.tick = self.tick.wrapping_add(1);
-        t
+        }
     }
 
     /// Applies an operator command; it takes effect at the next tick.
@@ -225,7 +222,7 @@ where
 
     /// Ticks run so far.
     pub fn ticks(&self) -> u32 {
-        self.tick
+        self.controller.uptime_ticks()
     }
 
     /// The last strain sample.

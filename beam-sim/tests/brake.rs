@@ -4,10 +4,9 @@
 
 mod common;
 
-use beam_sim::commanded::{run_commands, CommandedRun, Step};
-use beam_sim::sensors::SensorConfig;
+use beam_sim::commanded::{CommandedRun, Step};
 use beam_wire::command::{Command, Outcome};
-use model_core::{BeamParams, LawKind, Mode};
+use model_core::{LawKind, Mode};
 
 const DEG: f64 = core::f64::consts::PI / 180.0;
 
@@ -43,16 +42,7 @@ fn coast_and_recover(kind: LawKind, push_s: f64, latency: u32) -> Result<Command
             max_s: 10.0,
         },
     ];
-    run_commands::<3>(
-        BeamParams::aluminium(),
-        common::shipped(),
-        0.0,
-        kind,
-        0.0,
-        &script,
-        SensorConfig::default(),
-    )
-    .map_err(|e| e.to_string())
+    common::run_shipped(kind, &script)
 }
 
 /// The hub's mean rate over the 0.1 s before `t` (the beam's swing averaged out), rad/s.
@@ -78,16 +68,7 @@ fn pushes() -> Vec<f64> {
                     Step::Load(0.0),
                     Step::Wait(0.2),
                 ];
-                let r = run_commands::<3>(
-                    BeamParams::aluminium(),
-                    common::shipped(),
-                    0.0,
-                    LawKind::Pd,
-                    0.0,
-                    &push,
-                    SensorConfig::default(),
-                )
-                .expect("the push runs");
+                let r = common::run_shipped(LawKind::Pd, &push).expect("the push runs");
                 if coast_rate(&r, r.ticks.last().unwrap().t) < target {
                     lo = mid;
                 } else {

@@ -7,10 +7,10 @@
 
 mod common;
 
-use beam_sim::commanded::{run_commands, CommandedRun, Step};
-use beam_sim::sensors::{SensorConfig, SensorFault};
+use beam_sim::commanded::{CommandedRun, Step};
+use beam_sim::sensors::SensorFault;
 use beam_wire::command::{Command, Outcome};
-use model_core::{BeamParams, FaultFlags, LawKind, Mode};
+use model_core::{FaultFlags, LawKind, Mode};
 
 const DEG: f64 = core::f64::consts::PI / 180.0;
 
@@ -30,16 +30,7 @@ fn hold(kind: LawKind, kg: f32, load_nm: f64, hold_s: f64) -> Result<CommandedRu
         Step::Load(load_nm),
         Step::Wait(hold_s),
     ];
-    run_commands::<3>(
-        BeamParams::aluminium(),
-        common::shipped(),
-        0.0,
-        kind,
-        0.0,
-        &script,
-        SensorConfig::default(),
-    )
-    .map_err(|e| e.to_string())
+    common::run_shipped(kind, &script)
 }
 
 /// The largest hub error from 30 deg over the last `s` seconds of `r`, deg, and the mode at
@@ -157,16 +148,7 @@ fn a_stuck_encoder_still_latches_within_a_tenth_of_a_second_of_a_move() {
             Step::Wait(0.3),
             Step::Send(Command::Status),
         ];
-        let r = run_commands::<3>(
-            BeamParams::aluminium(),
-            common::shipped(),
-            0.0,
-            kind,
-            0.0,
-            &script,
-            SensorConfig::default(),
-        )
-        .unwrap_or_else(|e| panic!("{kind}: {e}"));
+        let r = common::run_shipped(kind, &script).unwrap_or_else(|e| panic!("{kind}: {e}"));
         let stuck_at = r.exchanges[0].t + 0.1;
         let tripped = r
             .ticks

@@ -11,10 +11,10 @@
 
 mod common;
 
-use beam_sim::commanded::{run_commands, CommandedRun, Step};
-use beam_sim::sensors::{SensorConfig, SensorFault};
+use beam_sim::commanded::{CommandedRun, Step};
+use beam_sim::sensors::SensorFault;
 use beam_wire::command::Command;
-use model_core::{BeamParams, FaultFlags, LawKind, Mode};
+use model_core::{FaultFlags, LawKind, Mode};
 
 const DEG: f64 = core::f64::consts::PI / 180.0;
 
@@ -56,16 +56,7 @@ fn run(kind: LawKind, fault: SensorFault, mid_move: bool) -> Result<(CommandedRu
     });
     script.push(Step::Sensor(fault));
     script.push(Step::Wait(1.5));
-    let r = run_commands::<3>(
-        BeamParams::aluminium(),
-        common::shipped(),
-        0.0,
-        kind,
-        0.0,
-        &script,
-        SensorConfig::default(),
-    )
-    .map_err(|e| e.to_string())?;
+    let r = common::run_shipped(kind, &script)?;
     // The fault's first tick: 1.5 s before the end.
     let at = r.ticks.last().unwrap().t - 1.5 + 1e-3;
     Ok((r, at))

@@ -285,7 +285,8 @@ struct State {
     segment: usize,
     /// Consecutive ticks with no count change under substantial torque.
     stall_ticks: u32,
-    /// Consecutive ticks with no count change at all.
+    /// Consecutive ticks with no count change at all (the sensor monitor's, observer builds).
+    #[cfg(feature = "observer")]
     still_ticks: u32,
     /// The law's own state (smc-i's integral, the observer), cleared when a move is armed.
     law_state: LawState,
@@ -899,11 +900,14 @@ impl<const K: usize> Controller<K> {
                 }
             }
         }
-        st.still_ticks = if delta == 0 {
-            st.still_ticks.saturating_add(1)
-        } else {
-            0
-        };
+        #[cfg(feature = "observer")]
+        {
+            st.still_ticks = if delta == 0 {
+                st.still_ticks.saturating_add(1)
+            } else {
+                0
+            };
+        }
         let limit = cfg.settings.torque_limit_nm;
         // Comparisons, not `clamp` (its min <= max assertion would put a panic on the tick
         // path) nor `max`/`min` (library calls on the Cortex-M4F, which has no VMAXNM). The

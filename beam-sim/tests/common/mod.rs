@@ -1,5 +1,9 @@
 //! The repository's shipped gain table, loaded at run time as the host tools load a table:
-//! the drive configuration the tests run against where they want the shipped gains.
+//! the drive configuration the tests run against where they want the shipped gains, and a
+//! commanded run on it.
+
+// Each test file uses some of these.
+#![allow(dead_code)]
 
 use model_core::DriveTable;
 use std::sync::OnceLock;
@@ -13,4 +17,22 @@ pub fn shipped() -> &'static DriveTable<'static> {
             .expect("the shipped gain table loads")
             .leak()
     })
+}
+
+/// `script` on the aluminium beam (3 modes) against the drive of the shipped table running
+/// `kind` at no payload, from rest at 0 with the reference sensors; a breakdown as its text.
+pub fn run_shipped(
+    kind: model_core::LawKind,
+    script: &[beam_sim::commanded::Step],
+) -> Result<beam_sim::commanded::CommandedRun, String> {
+    beam_sim::commanded::run_commands::<3>(
+        model_core::BeamParams::aluminium(),
+        shipped(),
+        0.0,
+        kind,
+        0.0,
+        script,
+        beam_sim::sensors::SensorConfig::default(),
+    )
+    .map_err(|e| e.to_string())
 }
