@@ -24,6 +24,12 @@ pub struct Bench {
     pub encoder_raw: Cell<u32>,
     /// The converter's result, clocked out as 24 bits.
     pub strain_code: Cell<i32>,
+    /// Each read adds a live bridge's noise to `strain_code` (a few hundred codes, never
+    /// at a rail): a converter that reads one code on end has stopped converting, and the
+    /// controller says so (`FaultFlags::GAUGE`).
+    pub noisy: Cell<bool>,
+    /// Reads so far (the noise's sequence).
+    reads: Cell<u32>,
     /// The converter has a result ready every poll (DRDY low); false: it stopped.
     pub converting: Cell<bool>,
     /// Every SPI transaction fails.
@@ -48,6 +54,8 @@ impl Bench {
         Bench {
             encoder_raw: Cell::new(0),
             strain_code: Cell::new(0),
+            noisy: Cell::new(false),
+            reads: Cell::new(0),
             converting: Cell::new(true),
             bus_broken: Cell::new(false),
             amp_fault: Cell::new(false),
@@ -58,6 +66,27 @@ impl Bench {
             en_high: Cell::new(false),
         }
     }
+}
+
+impl Bench {
+    /// The code the converter clocks out on this read.
+    fn code(&self) -> i32 {
+        let code = self.strain_code.get();
+        let (low, high) = (-(1 << 23), (1 << 23) - 1);
+        if !self.noisy.get() || code <= low || code >= high {
+            return code;
+        }
+        let n = self.reads.get().wrapping_add(1);
+        self.reads.set(n);
+        (code + bridge_noise(n)).clamp(low + 1, high - 1)
+    }
+}
+
+/// A live bridge's noise on its `n`-th conversion, codes: a spread of -128..=127 (0.08 ue
+/// on the shipped converter) in no short cycle, so that no two conversions in a row are
+/// likely to read one code (what a stopped converter does).
+pub const fn bridge_noise(n: u32) -> i32 {
+    (n.wrapping_mul(2_654_435_761) >> 24) as i32 - 128
 }
 
 /// A failure of a fake bus or pin.
@@ -103,7 +132,7 @@ impl SpiDevice for Bus<'_> {
         if self.0.bus_broken.get() {
             return Err(Broken);
         }
-        let [_, b2, b1, b0] = self.0.strain_code.get().to_be_bytes();
+        let [_, b2, b1, b0] = self.0.code().to_be_bytes();
         for op in ops {
             if let Operation::Read(buf) = op {
                 for (dst, src) in buf.iter_mut().zip([b2, b1, b0]) {

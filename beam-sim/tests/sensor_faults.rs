@@ -3,11 +3,13 @@
 //!
 //! Checked for every law and fault: the true root strain stays below the 3000 ue trip, the
 //! torque never sits at the limit for more than 50 ms on end, and the simulated beam stays in
-//! its model. For the observer laws, which read the gauge into every torque, a gauge that
-//! fails mid-move latches `gauge` within 100 ms and the move ends on the encoder alone.
-//! What is not yet detected (a gauge failing on a still beam, a stuck encoder in hold, a
-//! small encoder jump, and every gauge fault on the laws without an observer) is in the
-//! printed table and docs/faults.md.
+//! its model. No gauge fault stops the drive: every law ends its move within 0.1 deg and
+//! holds. A frozen gauge (stuck, or read as its zero code) latches `gauge` within 100 ms on
+//! every law, moving or held; on the observer laws, which read the gauge into every torque,
+//! so does every other gauge fault mid-move. What is not detected (a reversed, mis-scaled or
+//! drifting gauge on the laws without an observer, unless it reads past the trip; the same on
+//! a still beam for the observer laws, which a 70 ue residual does not see at once; a stuck
+//! encoder in hold; a small encoder jump) is in the printed table and docs/faults.md.
 
 mod common;
 
@@ -140,16 +142,29 @@ fn every_law_survives_every_sensor_fault_mid_move_and_in_hold() {
                                 o.longest_at_limit_ms
                             ));
                         }
-                        // The observer laws see a failed gauge mid-move, where it reads far
-                        // from the bending beam, within 100 ms, and finish on the encoder.
+                        // A gauge fault never stops the drive: every law ends its move at
+                        // the target and holds.
+                        if name.starts_with("gauge")
+                            && (o.end_mode != Mode::Holding || o.end_err_deg > 0.1)
+                        {
+                            failures.push(format!(
+                                "{kind} {name} {when}: ended {:?}, {:.2} deg off",
+                                o.end_mode, o.end_err_deg
+                            ));
+                        }
+                        // A frozen gauge (stuck, or read as its zero code) is seen by every
+                        // law within 100 ms, moving or held; the observer laws also see every
+                        // other gauge fault mid-move, where it reads far from the bending beam.
                         let observed = matches!(kind, LawKind::Lqg | LawKind::SmcModal);
-                        if observed && mid_move && name.starts_with("gauge") {
+                        let frozen =
+                            matches!(fault, SensorFault::GaugeStuck | SensorFault::GaugeZero);
+                        if frozen || (observed && mid_move && name.starts_with("gauge")) {
                             let ok = o.latched_s.is_some_and(|s| s <= 0.1)
-                                && o.faults == FaultFlags::GAUGE
-                                && o.end_mode == Mode::Holding
-                                && o.end_err_deg < 0.1;
+                                && o.faults == FaultFlags::GAUGE;
                             if !ok {
-                                failures.push(format!("{kind} {name} {when}: not latched as a gauge fault within 0.1 s, or not finished"));
+                                failures.push(format!(
+                                    "{kind} {name} {when}: not latched as a gauge fault within 0.1 s"
+                                ));
                             }
                         }
                     }

@@ -65,7 +65,11 @@ fn fake_drive(
             link.reply(&pending.remove(0).1);
         }
         while (tick as u128) < start.elapsed().as_millis() {
-            let t = ctl.step(&RawMeasurement::default());
+            // A live bridge at zero strain: its code moves with its noise.
+            let t = ctl.step(&RawMeasurement {
+                strain_root_code: beam_drive::fakes::bridge_noise(tick),
+                ..Default::default()
+            });
             let every = commander.stream_every() as u32;
             if every > 0 && tick % every == 0 {
                 link.record(&Record {

@@ -13,7 +13,7 @@
 
 pub use crate::error::{CommandError, ConfigError};
 use crate::error::{ParamError, ParamErrorKind};
-use crate::law::{ControlLaw, Estimate, LawSet, LawState, ALL_LAWS};
+use crate::law::{ControlLaw, Estimate, LawSet, LawState, ALL_LAWS, ASSUMED_STRAIN_NOISE};
 use crate::measure::Instruments;
 use crate::measure::{
     angle_rad, AdcSpec, CounterExtender, CounterWidth, EncoderSpec, FixedRate, LowPass,
@@ -101,10 +101,13 @@ impl FaultFlags {
     /// The hub left the drive's range by more than [`RANGE_FAULT_MARGIN_RAD`] with the
     /// torque on (widened to the move's start and end where they are outside it).
     pub const OUT_OF_RANGE: FaultFlags = FaultFlags(1 << 8);
-    /// The root strain gauge read what the observer could not explain (more than
-    /// [`GAUGE_RESIDUAL`] off its prediction): stuck, open, reversed, a wrong gain or a
-    /// drift. Not a stop: the move and the hold go on on the drive's own law, which reads
-    /// the encoder alone (the brake's), and no move is taken until it is cleared.
+    /// The root strain gauge failed: its converter read one code for
+    /// [`GAUGE_FROZEN_TICKS`] on end (stuck, or an open bridge read as the zero code), or,
+    /// on the observer laws, it read what the observer could not explain (more than
+    /// [`GAUGE_RESIDUAL`] off its prediction: reversed, a wrong gain, a drift). Under torque
+    /// not a stop: the move and the hold go on on the drive's own law, which reads the
+    /// encoder alone (the brake's), and no move is taken until it is cleared
+    /// ([`GAUGE_FAULTS`]).
     pub const GAUGE: FaultFlags = FaultFlags(1 << 9);
     /// The board's crystal did not start: it runs on its internal oscillator, whose
     /// frequency is not good enough to drive on. Latched again every tick: torque stays off.
@@ -258,6 +261,10 @@ struct Config<const K: usize> {
     strain_rate_lpf: LowPass,
     /// The drive's own law for this law's rigid inertia ([`Brake::for_law`]).
     brake: Brake,
+    /// Ticks of one unchanged gauge code that make a frozen gauge ([`GAUGE_FROZEN_TICKS`]),
+    /// or `u32::MAX` where the converter is too coarse to tell a frozen gauge from a quiet
+    /// one.
+    frozen_code_ticks: u32,
 }
 
 /// Loop state: filters, counters and the mode.
@@ -285,6 +292,9 @@ struct State {
     segment: usize,
     /// Consecutive ticks with no count change under substantial torque.
     stall_ticks: u32,
+    /// The gauge's last code and the ticks it has read it on end.
+    last_code: i32,
+    same_code_ticks: u32,
     /// Consecutive ticks with no count change at all (the sensor monitor's, observer builds).
     #[cfg(feature = "observer")]
     still_ticks: u32,
@@ -303,6 +313,9 @@ struct State {
     /// Added to the reference's angle: a brake's plan is moved onto the hub where its first
     /// tick finds it (0 for a move).
     ref_offset: f32,
+    /// A gauge fault latched under torque: the law is given a strain of zero (cleared with
+    /// the fault).
+    gauge_lost: bool,
 }
 
 /// The drive's range, rad: moves are planned within +-this of the encoder's zero (the
@@ -331,6 +344,24 @@ pub const REST_RAD_S: f32 = 0.5;
 pub const STALL_TICKS: u32 = 20;
 /// Fraction of the torque limit above which a motionless encoder counts toward a stall.
 pub const STALL_TORQUE_FRACTION: f32 = 0.2;
+
+/// Ticks of one unchanged gauge code before the gauge counts as frozen (a converter that
+/// stopped converting, an open bridge read as its zero code): [`FaultFlags::GAUGE`]. A
+/// converter whose codes are at most a sixteenth of the gauge noise the designs assume
+/// ([`crate::law::ASSUMED_STRAIN_NOISE`], 1 ue; 0.0006 ue a code for the shipped 24-bit
+/// converter at +-5000 ue) reads a live bridge's noise as a new code nearly every tick: two
+/// equal codes in a row come about once in 3000 ticks at 0.5 ue of noise, ten never. A
+/// coarser converter is not watched this way.
+pub const GAUGE_FROZEN_TICKS: u32 = 10;
+
+/// The faults of the gauge's reading alone. Under torque (Slewing, Holding) they latch, no
+/// new move or payload is taken until `clear`, and the move and the hold go on without the
+/// gauge: the laws that read it only as a term (smc-strain) are given a strain of zero, and
+/// the observer laws, whose observer cannot run without it, hand over to the drive's own law
+/// ([`Brake`]), which reads the encoder alone. Cutting the torque instead would leave a hub
+/// that was moving to coast on. In the Idle mode they latch the Fault mode as any other.
+pub const GAUGE_FAULTS: FaultFlags =
+    FaultFlags(FaultFlags::GAUGE.0 | FaultFlags::ADC_RAIL.0 | FaultFlags::OVER_STRAIN.0);
 
 /// Idle samples averaged for the strain offset at most (a quarter second at 1 kHz is plenty,
 /// and the sum cannot overflow).
@@ -406,25 +437,36 @@ impl<const K: usize> Controller<K> {
             return Err(bad("max_speed_rad_s", ParamErrorKind::OutOfRange));
         }
         let brake = Brake::for_law(&law);
+        let strain_per_code = s.adc.signed_strain_per_code() as f32;
+        // In f32, from the scale the tick uses: no double-precision arithmetic on the board.
+        let frozen_code_ticks =
+            if libm::fabsf(strain_per_code) * 16.0 <= ASSUMED_STRAIN_NOISE as f32 {
+                GAUGE_FROZEN_TICKS
+            } else {
+                u32::MAX
+            };
         let cfg = Config {
             settings,
             law,
             spline,
             rad_per_count: signed_rad_per_count,
             rad_per_count_fixed: fixed_rad_per_count,
-            strain_per_code: s.adc.signed_strain_per_code() as f32,
+            strain_per_code,
             rails: (s.adc.min_code(), s.adc.max_code()),
             max_counts_per_tick: max_counts as u32,
             counter_width: s.encoder.width(),
             velocity_lpf,
             strain_rate_lpf,
             brake,
+            frozen_code_ticks,
         };
         let st = State {
             offset_code: s.strain_offset_code as f32,
             // The encoder's count is zero where it was powered up, which is the home angle:
             // a status or a plan before the first tick sees the hub there, not at 0.
             theta: s.theta_home_rad,
+            // No converter reads it but at its rail: the first code is never a repeat.
+            last_code: i32::MIN,
             ..State::default()
         };
         Ok(Self { cfg, st })
@@ -501,6 +543,7 @@ impl<const K: usize> Controller<K> {
             theta: st.theta,
             strain: st.strain,
             offset_code: self.cfg.settings.strain_offset_code as f32,
+            last_code: i32::MIN,
             ..State::default()
         };
     }
@@ -667,7 +710,17 @@ impl<const K: usize> Controller<K> {
         faults.insert(self.detect_faults(raw, &x));
         if !faults.is_empty() {
             self.st.faults.insert(faults);
-            self.st.mode = Mode::Fault;
+            let hard = FaultFlags(faults.0 & !GAUGE_FAULTS.0);
+            if hard.is_empty() && matches!(self.st.mode, Mode::Slewing | Mode::Holding) {
+                // A failed gauge (or a reading past the trip or at a rail, which a gauge
+                // read at three times its gain gives as readily as a bent beam) does not
+                // cut the torque under a moving hub, which would coast on: the move and
+                // the hold go on without the gauge (see `GAUGE_FAULTS`).
+                self.st.gauge_lost = true;
+                self.st.braking |= self.cfg.brake.takes_gauge_loss;
+            } else {
+                self.st.mode = Mode::Fault;
+            }
         }
         let reference = self.advance(x.theta);
         let torque_nm = self.command::<LAWS>(&x, reference.as_ref(), hub.delta);
@@ -776,6 +829,12 @@ impl<const K: usize> Controller<K> {
             None => 0.0,
         };
         st.last_strain = Some(strain);
+        st.same_code_ticks = if code == st.last_code {
+            st.same_code_ticks.saturating_add(1)
+        } else {
+            0
+        };
+        st.last_code = code;
         (strain, strain_rate)
     }
 
@@ -792,6 +851,10 @@ impl<const K: usize> Controller<K> {
         }
         if libm::fabsf(x.strain) > s.max_strain {
             faults.insert(FaultFlags::OVER_STRAIN);
+        }
+        // `same_code_ticks` counts the repeats, so the code has been read once more.
+        if self.st.same_code_ticks >= self.cfg.frozen_code_ticks {
+            faults.insert(FaultFlags::GAUGE);
         }
         if raw.amp_fault {
             faults.insert(FaultFlags::AMP_FAULT);
@@ -875,8 +938,16 @@ impl<const K: usize> Controller<K> {
             torque = if st.braking {
                 cfg.brake.torque_nm(x, r)
             } else {
+                // Without a gauge, the laws that read it run on a beam read as straight
+                // (a product, not a branch: one path through the law).
+                let gauge = if st.gauge_lost { 0.0 } else { 1.0 };
+                let x = Estimate {
+                    strain: x.strain * gauge,
+                    strain_rate: x.strain_rate * gauge,
+                    ..*x
+                };
                 cfg.law
-                    .torque_nm_in::<LAWS>(x, r, &mut st.law_state, cfg.settings.ts_s)
+                    .torque_nm_in::<LAWS>(&x, r, &mut st.law_state, cfg.settings.ts_s)
             };
             if !torque.is_finite() {
                 st.faults.insert(FaultFlags::NON_FINITE);

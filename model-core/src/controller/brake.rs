@@ -5,7 +5,7 @@ use crate::law::{ControlLaw, Estimate};
 use crate::spline::RefPoint;
 
 /// The drive's own law: the brake ([`Controller::start_brake`](super::Controller::start_brake)),
-/// the fallback on a failed gauge ([`FaultFlags::GAUGE`](super::FaultFlags::GAUGE)) and the hold of
+/// the fallback of the observer laws on a failed gauge ([`GAUGE_FAULTS`](super::GAUGE_FAULTS)) and the hold of
 /// the sliding-mode laws that hold weakly ([`HOLD_HANDOVER_RAD`]):
 /// `tau = J theta_r'' + Kp (theta_r - theta) + Kd (theta_r' - theta')` on the hub alone, with `J`
 /// the rigid inertia (hub, beam, payload) of the law in use and the PD placed at
@@ -22,6 +22,10 @@ pub struct Brake {
     pub kd: f32,
     /// The drive takes the hold over from the law at the target ([`HOLD_HANDOVER_RAD`]).
     pub takes_hold: bool,
+    /// The law cannot run without the gauge (its observer reads it): on a gauge fault the
+    /// drive's own law takes the move and the hold over. The other laws run on, on a strain
+    /// of zero.
+    pub takes_gauge_loss: bool,
 }
 
 /// How close to a held target the hub must be (and slower than [`REST_RAD_S`](super::REST_RAD_S))
@@ -46,10 +50,13 @@ impl Brake {
     /// sliding-mode laws without integral action or an observer (smc, smc-strain). Not from the PD
     /// baseline: it stays the paper's Kp 20 N m/rad spring, the reference the others are compared
     /// with and the law calibration logs are taken under.
+    #[inline(always)] // once per law change; outlined it cost the board 140 B
     pub fn for_law(law: &ControlLaw) -> Self {
         use crate::law::LawKind;
+        let kind = law.law().kind();
         Self {
-            takes_hold: matches!(law.law().kind(), LawKind::Smc | LawKind::SmcStrain),
+            takes_hold: matches!(kind, LawKind::Smc | LawKind::SmcStrain),
+            takes_gauge_loss: kind.has_observer(),
             ..Self::for_inertia(law.rigid_inertia())
         }
     }
@@ -67,6 +74,7 @@ impl Brake {
             kp: j * Self::BANDWIDTH_RAD_S * Self::BANDWIDTH_RAD_S,
             kd: 2.0 * Self::DAMPING * j * Self::BANDWIDTH_RAD_S,
             takes_hold: false,
+            takes_gauge_loss: false,
         }
     }
 

@@ -27,15 +27,24 @@ const SMC_GAINS: SmcGains = SmcGains {
 };
 const SMC: Law = Law::Smc(SMC_GAINS);
 
-/// The raw counter of a hub exactly on the move's reference `ticks` ticks in.
+/// The raw counter of a hub exactly on the move's reference `ticks` ticks in, with a live
+/// gauge's code at zero strain ([`live_code`]).
 fn on_reference(c: &Controller<4>, ticks: u32) -> RawMeasurement {
     let s = c.settings();
     let theta = c.spline().eval(ticks as f32 * s.ts_s).pos;
     let count = ((theta - s.theta_home_rad) / s.encoder.rad_per_count() as f32).round();
     RawMeasurement {
         encoder_raw: (count as i64 as u32) & s.encoder.mask(),
+        strain_root_code: live_code(ticks),
         ..Default::default()
     }
+}
+
+/// A live bridge's code at zero strain on tick `k`: a few hundred codes of noise (0.1 ue
+/// on the 24-bit converter), so never the same code for long, as a converter that stopped
+/// converting reads ([`GAUGE_FROZEN_TICKS`]).
+fn live_code(k: u32) -> i32 {
+    (k.wrapping_mul(2_654_435_761) >> 24) as i32 - 128
 }
 
 #[test]
@@ -63,15 +72,18 @@ fn idle_until_started_then_slews_then_holds() {
 #[test]
 fn a_hub_that_does_not_move_under_torque_trips_encoder_stuck() {
     let mut c = controller(Law::Pd(PdGains::BASELINE));
-    let still = RawMeasurement::default();
-    c.step(&still);
+    let still = |k: u32| RawMeasurement {
+        strain_root_code: live_code(k),
+        ..Default::default()
+    };
+    c.step(&still(0));
     c.start_move().unwrap();
     // The reference runs away from a hub that never moves; once PD's torque passes a
     // fifth of the limit, or the reference moves two counts a tick, STALL_TICKS ticks
     // without a count trip the fault.
     let s = *c.settings();
     let spline = c.spline().clone();
-    let outs: Vec<TorqueCommand> = (0..400).map(|_| c.step(&still)).collect();
+    let outs: Vec<TorqueCommand> = (1..=400).map(|k| c.step(&still(k))).collect();
     let k = outs
         .iter()
         .position(|o| o.mode == Mode::Fault)
@@ -325,6 +337,7 @@ fn a_hub_leaving_the_range_under_torque_latches_out_of_range_but_not_while_idle(
         let count = ((theta - s.theta_home_rad) / s.encoder.rad_per_count() as f32).round();
         RawMeasurement {
             encoder_raw: (count as i64 as u32) & s.encoder.mask(),
+            strain_root_code: live_code(theta.to_bits()),
             ..Default::default()
         }
     };
@@ -475,4 +488,91 @@ fn before_its_first_tick_the_drive_reports_the_hub_at_home() {
     let mut c = c;
     let out = c.step(&RawMeasurement::default());
     assert_eq!(out.theta_rad, home);
+}
+
+/// A move on the reference for `ticks` ticks, the gauge live, then its code frozen.
+fn frozen_mid_move(c: &mut Controller<4>, live_ticks: u32) -> Vec<TorqueCommand> {
+    c.step(&on_reference(c, 0));
+    c.start_move().unwrap();
+    for k in 0..live_ticks {
+        c.step(&on_reference(c, k));
+    }
+    let frozen = live_code(live_ticks - 1);
+    (live_ticks..400)
+        .map(|k| {
+            c.step(&RawMeasurement {
+                strain_root_code: frozen,
+                ..on_reference(c, k)
+            })
+        })
+        .collect()
+}
+
+#[test]
+fn a_frozen_gauge_latches_gauge_and_the_drives_own_law_finishes_the_move() {
+    let mut c = controller(SMC);
+    let outs = frozen_mid_move(&mut c, 100);
+    // The frozen code was read once live; its GAUGE_FROZEN_TICKS-th repeat latches.
+    let k = outs
+        .iter()
+        .position(|o| !o.faults.is_empty())
+        .expect("a frozen gauge must latch");
+    assert_eq!(k + 1, GAUGE_FROZEN_TICKS as usize);
+    assert_eq!(outs[k].faults, FaultFlags::GAUGE);
+    // Not a stop: the move goes on, on the drive's own law, to its end and the hold.
+    assert!(outs[k..].iter().all(|o| o.mode != Mode::Fault));
+    assert_eq!(c.mode(), Mode::Holding);
+    assert!(c.st.braking);
+    assert!(outs[k..].iter().any(|o| o.torque_nm != 0.0));
+    // Idle, the same code on end is a fault like any other: no torque to hand over.
+    let mut c = controller(SMC);
+    let outs: Vec<_> = (0..20)
+        .map(|_| c.step(&RawMeasurement::default()))
+        .collect();
+    assert_eq!(outs[GAUGE_FROZEN_TICKS as usize - 1].mode, Mode::Idle);
+    assert_eq!(outs[GAUGE_FROZEN_TICKS as usize].mode, Mode::Fault);
+    assert_eq!(outs[GAUGE_FROZEN_TICKS as usize].faults, FaultFlags::GAUGE);
+}
+
+#[test]
+fn a_converter_too_coarse_to_show_noise_is_not_watched_for_frozen_codes() {
+    // 12 bits over +-5000 ue: 2.4 ue a code, more than the 1 ue of noise the designs assume,
+    // so a live bridge may well read one code for long.
+    let mut s = ControllerSettings::new(crate::table::Instruments::DEFAULT);
+    s.adc.bits = 12;
+    let mut c = controller(SMC);
+    c = Controller::try_build(s, c.cfg.law, c.spline().clone()).unwrap();
+    for _ in 0..1000 {
+        assert_eq!(c.step(&RawMeasurement::default()).mode, Mode::Idle);
+    }
+}
+
+#[test]
+fn a_reading_past_the_trip_under_a_moving_hub_hands_the_move_to_the_drives_own_law() {
+    // 4000 ue read 100 ticks into the move (a gauge at three times its gain reads a 1300 ue
+    // beam so): latched, and the move finishes on the encoder rather than coasting.
+    let over = (4000e-6 / AdcSpec::DEFAULT.strain_per_code()) as i32;
+    let mut c = controller(SMC);
+    c.step(&on_reference(&c, 0));
+    c.start_move().unwrap();
+    for k in 0..100 {
+        c.step(&on_reference(&c, k));
+    }
+    let out = c.step(&RawMeasurement {
+        strain_root_code: over,
+        ..on_reference(&c, 100)
+    });
+    assert_eq!(out.faults, FaultFlags::OVER_STRAIN);
+    assert_eq!(out.mode, Mode::Slewing);
+    for k in 101..=400 {
+        let out = c.step(&on_reference(&c, k));
+        assert_eq!(out.faults, FaultFlags::OVER_STRAIN, "tick {k}");
+    }
+    assert_eq!(c.mode(), Mode::Holding);
+    // An encoder fault on top is a stop.
+    let out = c.step(&RawMeasurement {
+        encoder_raw: 5000,
+        ..on_reference(&c, 400)
+    });
+    assert_eq!((out.mode, out.torque_nm), (Mode::Fault, 0.0));
 }
