@@ -135,63 +135,7 @@ impl std::fmt::Display for UnphysicalCause {
 /// within 0.7 % with 0.1 s of rest).
 pub const REST_BEFORE_S: f64 = 0.1;
 
-/// Pauses shorter than this inside a move (the hub slowing through a reversal, a settling
-/// swing) do not split it, s.
-pub const MOVE_GAP_S: f64 = 0.3;
-
-/// The moves in `log`: where the hub turns faster than 5 % of its peak rate (over +-10 ms),
-/// in runs that pauses under [`MOVE_GAP_S`] do not break and that each cover at least a
-/// tenth of the largest run's travel. With one move (or none), the log whole. Each cut runs
-/// from twice [`REST_BEFORE_S`] before its move's fast part (the move itself starts a little
-/// earlier: the windows find it by the torque), or the previous move's end if nearer, to as
-/// much before the next move (or the log's end).
-pub fn split_moves(log: &Log) -> Vec<Log> {
-    let n = log.t.len();
-    let whole = || vec![log.clone()];
-    if n < 3 {
-        return whole();
-    }
-    let dt = (log.t[n - 1] - log.t[0]) / (n - 1) as f64;
-    let w = ((0.01 / dt).round() as usize).max(1);
-    let rate: Vec<f64> = (0..n)
-        .map(|k| {
-            let (a, b) = (k.saturating_sub(w), (k + w).min(n - 1));
-            (log.theta[b] - log.theta[a]) / ((b - a) as f64 * dt)
-        })
-        .collect();
-    let peak = rate.iter().fold(0.0f64, |m, r| m.max(r.abs()));
-    if !(peak > 0.0) {
-        return whole();
-    }
-    // Runs of motion, pauses shorter than MOVE_GAP_S bridged.
-    let gap = (MOVE_GAP_S / dt).round() as usize;
-    let mut runs: Vec<(usize, usize)> = vec![];
-    for k in (0..n).filter(|&k| rate[k].abs() > 0.05 * peak) {
-        match runs.last_mut() {
-            Some(run) if k <= run.1 + gap => run.1 = k,
-            _ => runs.push((k, k)),
-        }
-    }
-    let travel = |r: &(usize, usize)| (log.theta[r.1] - log.theta[r.0]).abs();
-    let largest = runs.iter().map(travel).fold(0.0f64, f64::max);
-    runs.retain(|r| travel(r) >= 0.1 * largest);
-    if runs.len() < 2 {
-        return whole();
-    }
-    let rest = (2.0 * REST_BEFORE_S / dt).round() as usize;
-    runs.iter()
-        .enumerate()
-        .map(|(i, &(start, _))| {
-            let prev_end = if i == 0 { 0 } else { runs[i - 1].1 };
-            let from = start.saturating_sub(rest).max(prev_end);
-            let to = match runs.get(i + 1) {
-                Some(&(next, _)) => next.saturating_sub(rest).max(runs[i].1 + 1),
-                None => n,
-            };
-            log.slice(from..to.min(n))
-        })
-        .collect()
-}
+pub use super::cut::{split_moves, MOVE_GAP_S};
 
 /// Where the steps look, s from the log's first sample: the move (`start_s..end_s`) and the
 /// settling after it (`end_s..settle_end_s`).

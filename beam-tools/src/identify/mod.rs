@@ -1,6 +1,7 @@
 //! Identification: the model's parameters from logged moves, and the model against a log.
 
 pub mod calibrate;
+pub mod cut;
 pub mod hub;
 pub mod lsq;
 pub mod prescribed;

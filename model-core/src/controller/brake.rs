@@ -1,5 +1,5 @@
-//! The drive's own law, beside the table's: the brake, the fallback on a failed gauge and the
-//! hold it takes over from the laws that hold weakly.
+//! The drive's own law, beside the table's: the brake, the observer laws' fallback on a
+//! failed gauge and the hold it takes over from the laws that hold weakly.
 
 use crate::law::{ControlLaw, Estimate};
 use crate::spline::RefPoint;
