@@ -2,6 +2,7 @@
 //! encoder's own step (found in the log), with hysteresis, and split where it reverses.
 
 use super::calibrate::REST_BEFORE_S;
+use super::hub::encoder_step;
 use beam_log::Log;
 
 /// Pauses shorter than this inside a move (the hub slowing through a settling swing) do not
@@ -14,38 +15,10 @@ pub const MOVE_GAP_S: f64 = 0.3;
 /// the beam after a move by a step or two more.
 const REST_STEPS: f64 = 3.0;
 
-/// The smallest step the logged angle takes: the encoder's count, or the rounding the log
-/// was written with. The smallest change between samples that a tenth of the changes are
-/// within a quarter of (a single odd difference from float noise does not count); `None`
-/// where the angle does not change, or changes by amounts with no common step (a logged
-/// estimate rather than a count).
-pub fn angle_step(theta: &[f64]) -> Option<f64> {
-    let mut d: Vec<f64> = theta
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 1e-12)
-        .collect();
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    let step = d[d.len() / 20];
-    let near = d
-        .iter()
-        .filter(|x| (*x - step).abs() <= 0.25 * step)
-        .count();
-    // Every change a whole number of steps: a counted or rounded angle.
-    let whole = d
-        .iter()
-        .filter(|x| ((*x / step) - (*x / step).round()).abs() < 0.1)
-        .count();
-    (near * 10 >= d.len() && whole * 10 >= 9 * d.len()).then_some(step)
-}
-
 /// The moves in `log`, each with the rest before it.
 ///
 /// The hub's rate over +-10 ms marks motion where it passes the larger of 5 % of its peak
-/// and [`REST_STEPS`] encoder steps over the window ([`angle_step`]: a hub at rest whose
+/// and [`REST_STEPS`] encoder steps over the window ([`encoder_step`]: a hub at rest whose
 /// reading flickers by a step is at rest), and motion goes on until the rate falls below
 /// half that (hysteresis). Runs of motion that pauses under [`MOVE_GAP_S`] do not break are
 /// joined; a run is then split where the hub reverses
@@ -72,7 +45,7 @@ pub fn split_moves(log: &Log) -> Vec<Log> {
     if !(peak > 0.0) {
         return whole();
     }
-    let quantum = angle_step(&log.theta).map_or(0.0, |s| REST_STEPS * s / (2.0 * w as f64 * dt));
+    let quantum = encoder_step(&log.theta).map_or(0.0, |s| REST_STEPS * s / (2.0 * w as f64 * dt));
     let high = (0.05 * peak).max(quantum);
     let low = 0.5 * high;
     // Runs of motion, with hysteresis, and the direction of each.
@@ -211,12 +184,10 @@ mod tests {
     }
 
     #[test]
-    fn the_step_of_a_rounded_angle_is_found_and_a_float_estimate_has_none() {
+    fn the_step_of_the_rounded_angle_is_found() {
         let log = rig_log(4.0, &[(1.0, 1.0)], 0.1);
-        let step = angle_step(&log.theta).unwrap();
+        let step = encoder_step(&log.theta).unwrap();
         assert!((step - 1e-3).abs() < 1e-9, "{step}");
-        let smooth: Vec<f64> = (0..1000).map(|k| (k as f64 * 0.0123).sin()).collect();
-        assert_eq!(angle_step(&smooth), None);
     }
 
     #[test]
