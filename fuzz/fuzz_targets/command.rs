@@ -12,6 +12,18 @@ use model_core::commands::{CommandedController, Commander};
 use model_core::{Controller, LawKind, Mode, RawMeasurement, Spline};
 use std::sync::OnceLock;
 
+/// `raw` with a live bridge's code: a few hundred codes of noise that change every reading
+/// (a converter that reads one code on end has stopped, and the controller latches `gauge`).
+fn live(raw: RawMeasurement) -> RawMeasurement {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static READS: AtomicU32 = AtomicU32::new(0);
+    let n = READS.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+    RawMeasurement {
+        strain_root_code: raw.strain_root_code + (n.wrapping_mul(2_654_435_761) >> 24) as i32 - 128,
+        ..raw
+    }
+}
+
 /// The drive in each state a command can meet, built once: idle, a move answered but not
 /// yet started, slewing, holding, faulted, and idle with the hub coasting (the torque off).
 /// The input's first byte picks one.
@@ -32,7 +44,7 @@ fn drives() -> &'static [(Commander<'static>, CommandedController)] {
         let raw = RawMeasurement::default();
         let ticks = |ctl: &mut CommandedController, n: usize, raw: &RawMeasurement| {
             for _ in 0..n {
-                ctl.step(raw);
+                ctl.step(&live(*raw));
             }
         };
         ticks(&mut ctl, 5, &raw);
@@ -63,7 +75,7 @@ fn drives() -> &'static [(Commander<'static>, CommandedController)] {
                     & settings.encoder.mask(),
                 ..raw
             };
-            holding.1.step(&on);
+            holding.1.step(&live(on));
         }
         let mut faulted = idle.clone();
         let fault = RawMeasurement {
