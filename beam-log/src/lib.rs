@@ -189,7 +189,8 @@ impl Columns {
     /// The defaults with some quantities mapped, from `t=time_ms:ms,theta=hub:deg,...`:
     /// quantities `t`, `torque`, `theta`, `strain` (root strain), `tip` (tip deflection, in
     /// place of the root strain), `mid`; units `s`, `ms`, `us` (time), `nm`, `mnm`
-    /// (torque), `rad`, `deg` (angle), `strain`, `ue` (strain), `m`, `mm` (deflection).
+    /// (torque), `rad`, `deg` (angle), `strain`, `ue` (strain), `m`, `mm` (deflection),
+    /// each with a leading `-` for a column that reads with the other sign (`torque=tau:-nm`).
     /// A log has one beam signal: `strain` and `tip` together are refused.
     pub fn parse(spec: &str) -> Result<Self, String> {
         let mut c = Columns::default();
@@ -205,17 +206,28 @@ impl Columns {
             if column.is_empty() {
                 return Err(format!("`{item}`: no column name"));
             }
+            // A unit with a leading `-` reads the column with the other sign (a sensor or
+            // an amplifier wired the other way round).
             let scale = |units: &[(&str, f64)]| -> Result<f64, String> {
                 match unit {
                     None => Ok(units[0].1),
-                    Some(u) => units
-                        .iter()
-                        .find(|(n, _)| *n == u)
-                        .map(|(_, s)| *s)
-                        .ok_or_else(|| {
-                            let names: Vec<&str> = units.iter().map(|(n, _)| *n).collect();
-                            format!("`{item}`: unit `{u}` is not one of {}", names.join(", "))
-                        }),
+                    Some(u) => {
+                        let (sign, name) = match u.strip_prefix('-') {
+                            Some(rest) => (-1.0, rest.trim()),
+                            None => (1.0, u),
+                        };
+                        units
+                            .iter()
+                            .find(|(n, _)| *n == name)
+                            .map(|(_, s)| sign * *s)
+                            .ok_or_else(|| {
+                                let names: Vec<&str> = units.iter().map(|(n, _)| *n).collect();
+                                format!(
+                                    "`{item}`: unit `{u}` is not one of {} (a leading - flips the sign)",
+                                    names.join(", ")
+                                )
+                            })
+                    }
                 }
             };
             let column = column.to_string();
@@ -514,6 +526,11 @@ mod tests {
         assert!(Columns::parse("speed=w").is_err());
         let tip = Columns::parse("tip=arm:mm").unwrap();
         assert_eq!((tip.sensor, tip.beam.1), (BeamSensor::TipDeflection, 1e-3));
+        // A leading `-` reads a column wired the other way round.
+        let flipped = Columns::parse("torque=tau:-mnm,theta=hub:-deg").unwrap();
+        assert_eq!(flipped.torque.1, -1e-3);
+        assert_eq!(flipped.theta.1, -core::f64::consts::PI / 180.0);
+        assert!(Columns::parse("t=time:-").is_err());
     }
 
     #[test]

@@ -7,4 +7,5 @@ pub mod lsq;
 pub mod prescribed;
 pub mod replay;
 pub mod split;
+pub mod units;
 pub mod warnings;

@@ -8,6 +8,7 @@ use beam_tools::identify::calibrate::{
 };
 use beam_tools::identify::replay::{sensor_lag, STRAIN_DELAY_FLOOR_S};
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
+use beam_tools::identify::units::unit_mistake;
 use beam_tools::identify::warnings::{warnings, Calibration, LogAlone, Spread, Warning};
 use beam_tools::io::params_file::Sensors;
 use clap::Args;
@@ -249,6 +250,10 @@ fn experiments(
             tip_mass_kg: tip_mass_kg.unwrap_or(model.tip_mass_kg),
             ..*model
         };
+        // A unit or a sign read wrong, named as such before a fit fails for another reason.
+        if let Some(mistake) = unit_mistake(&log, &beam) {
+            bail!("{file}: {mistake}");
+        }
         let (delay, note) = match lags {
             Some(lags) if lags[i] < STRAIN_DELAY_FLOOR_S => (0.0, None),
             Some(lags) => (
