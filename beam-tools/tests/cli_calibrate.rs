@@ -3,6 +3,7 @@
 
 mod common;
 
+use beam_tools::identify::warnings::SHOWN_WARNINGS;
 use common::{beam, json, scratch};
 use std::path::{Path, PathBuf};
 
@@ -213,11 +214,27 @@ fn calibrate_json_carries_its_warnings_and_prints_them_on_stderr() {
         "{warnings:?}"
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
-    for w in &warnings {
+    on_stderr(&warnings, &stderr);
+}
+
+/// The JSON's warnings (most pressing first) on stderr: the first
+/// [`SHOWN_WARNINGS`] each in full, the rest counted in one line.
+fn on_stderr<S: AsRef<str>>(warnings: &[S], stderr: &str) {
+    for w in warnings.iter().take(SHOWN_WARNINGS) {
         assert!(
-            stderr.contains(&format!("warning: {w}")),
-            "{w} not on stderr"
+            stderr.contains(&format!("warning: {}", w.as_ref())),
+            "{} not on stderr",
+            w.as_ref()
         );
+    }
+    let lines = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .count();
+    assert_eq!(lines, warnings.len().min(SHOWN_WARNINGS), "{stderr}");
+    if warnings.len() > SHOWN_WARNINGS {
+        let more = format!("{} more, less pressing", warnings.len() - SHOWN_WARNINGS);
+        assert!(stderr.contains(&more), "{stderr}");
     }
 }
 
@@ -277,9 +294,7 @@ fn calibrate_by_default_splits_and_says_when_a_result_sits_on_a_bound_or_logs_di
             .iter()
             .map(|w| w.as_str().unwrap().to_string())
             .collect();
-        for w in &warnings {
-            assert!(stderr.contains(w.as_str()), "{w} not on stderr");
-        }
+        on_stderr(&warnings, &stderr);
         (v, warnings)
     };
     // Two moves of one beam agree; each was calibrated alone as well.

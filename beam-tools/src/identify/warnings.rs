@@ -193,12 +193,12 @@ impl fmt::Display for Warning {
             ),
             Warning::Tradeoff(t) => write!(
                 f,
-                "{} and {} trade against each other (correlation {:.3}); the logs do not tell them apart",
-                t.a, t.b, t.correlation
+                "{} and {} trade against each other (correlation {:.3}); the logs do not tell them apart ({})",
+                t.a, t.b, t.correlation, separates(t.a, t.b)
             ),
             Warning::Unpinned(u) => write!(
                 f,
-                "{}'s interval ({:.1e}) is wider than its value ({:.4e}): the logs do not pin it down",
+                "{}'s interval ({:.1e}) is wider than its value ({:.4e}): the logs do not pin it down (it matters little to them; if you know it, put it in --params)",
                 u.name, u.std_err, u.value
             ),
             Warning::NoEffect => {
@@ -260,6 +260,92 @@ impl fmt::Display for Warning {
             ),
         }
     }
+}
+
+/// What tells parameters `a` and `b` apart, in words.
+fn separates(a: &str, b: &str) -> &'static str {
+    let pair = |x: &str, y: &str| (a == x && b == y) || (a == y && b == x);
+    if pair("jm_kgm2", "density_kg_m3") {
+        "the same move logged again with a weighed tip mass separates them (--tip-masses), as does the density given (--known-density)"
+    } else if pair("viscous_nms", "coulomb_nm") {
+        "moves at other speeds separate them"
+    } else {
+        "other moves, or one of them known, separate them"
+    }
+}
+
+/// How much a warning asks of the user, most first: 0, the result is suspect (the model
+/// does not explain the logs, or the logs disagree); 1, a fit limited by the data or a
+/// choice made for the user that may be wrong; 2, what was done to the logs; 3, what the
+/// logs cannot tell, which the intervals already show.
+impl Warning {
+    /// The warning's rank, 0 first.
+    pub fn rank(&self) -> u8 {
+        match self {
+            Warning::ReplayDrifts { .. }
+            | Warning::LogsDisagree { .. }
+            | Warning::LogAloneFailed { .. }
+            | Warning::StepsDisagree { .. }
+            | Warning::AtBound { .. } => 0,
+            Warning::ShortRest { .. }
+            | Warning::TorqueUnplaced { .. }
+            | Warning::SmoothingLimits { .. }
+            | Warning::EncoderLimits { .. }
+            | Warning::NoEffect => 1,
+            Warning::Note(_) | Warning::UnmeasuredMid { .. } | Warning::LagFitted { .. } => 2,
+            Warning::Tradeoff(_) | Warning::Unpinned(_) => 3,
+        }
+    }
+}
+
+/// The warnings a run prints as warnings; the rest are summed up in a line
+/// ([`ranked`], [`more_line`]). Every one is in the JSON.
+pub const SHOWN_WARNINGS: usize = 3;
+
+/// `warnings` most serious first ([`Warning::rank`], in their order within a rank), with a
+/// lag fitted alike on several logs (within a millisecond) said once for them all.
+pub fn ranked(warnings: Vec<Warning>) -> Vec<Warning> {
+    let mut out: Vec<Warning> = vec![];
+    for w in warnings {
+        if let Warning::LagFitted { file, lag_s, .. } = &w {
+            let same = out.iter_mut().find_map(|o| match o {
+                Warning::LagFitted {
+                    file: f, lag_s: l, ..
+                } if (*l - lag_s).abs() < 1e-3 => Some(f),
+                _ => None,
+            });
+            if let Some(f) = same {
+                f.push_str(&format!(", {file}"));
+                continue;
+            }
+        }
+        out.push(w);
+    }
+    out.sort_by_key(Warning::rank);
+    out
+}
+
+/// The line that sums up the warnings past the first [`SHOWN_WARNINGS`] of `ranked`, if
+/// any.
+pub fn more_line(ranked: &[Warning]) -> Option<String> {
+    let rest = ranked.get(SHOWN_WARNINGS..).filter(|r| !r.is_empty())?;
+    let what: Vec<String> = rest
+        .iter()
+        .map(|w| match w {
+            Warning::Tradeoff(t) => format!("{} with {}", t.a, t.b),
+            Warning::Unpinned(u) => format!("{} not pinned down", u.name),
+            Warning::AtBound { at, .. } => format!("{} at a bound", at.name),
+            Warning::SmoothingLimits { name, .. } | Warning::EncoderLimits { name, .. } => {
+                format!("{name} limited by the hub's data")
+            }
+            _ => "a note on the logs".to_string(),
+        })
+        .collect();
+    Some(format!(
+        "{} more, less pressing: {} (`--json` lists every one)",
+        rest.len(),
+        what.join("; ")
+    ))
 }
 
 /// A parameter on a bound of its search: its value is the search's, not the logs'.
@@ -552,5 +638,43 @@ mod tests {
         assert_eq!(apart.len(), 1);
         assert_eq!(apart[0].0, "all");
         assert!((apart[0].2 - 5.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn warnings_come_most_pressing_first_with_one_lag_said_once_and_the_rest_summed_up() {
+        let lag = |file: &str, lag_s: f64| Warning::LagFitted {
+            file: file.into(),
+            sensor: "tip deflection",
+            lag_s,
+        };
+        let trade = Warning::Tradeoff(Tradeoff {
+            a: "jm_kgm2",
+            b: "density_kg_m3",
+            correlation: -0.97,
+        });
+        let drift = Warning::ReplayDrifts {
+            rms_deg: 3.0,
+            percent_of_move: 12.0,
+        };
+        let r = ranked(vec![
+            trade.clone(),
+            lag("a.csv", 0.015),
+            lag("b.csv", 0.0152),
+            lag("c.csv", 0.030),
+            Warning::Unpinned(u("coulomb_nm", 0.0, 0.01)),
+            drift.clone(),
+        ]);
+        // The drift first; the lags (two alike merged) next; what the logs cannot tell last.
+        assert_eq!(r[0], drift);
+        assert_eq!(r[1], lag("a.csv, b.csv", 0.015));
+        assert_eq!(r[2], lag("c.csv", 0.030));
+        assert_eq!(r[3], trade);
+        assert_eq!(r.len(), 5);
+        let more = more_line(&r).unwrap();
+        assert!(
+            more.starts_with("2 more") && more.contains("coulomb_nm"),
+            "{more}"
+        );
+        assert_eq!(more_line(&r[..SHOWN_WARNINGS]), None);
     }
 }

@@ -9,7 +9,9 @@ use beam_tools::identify::calibrate::{
 use beam_tools::identify::replay::{sensor_lag, STRAIN_DELAY_FLOOR_S};
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
 use beam_tools::identify::units::unit_mistake;
-use beam_tools::identify::warnings::{warnings, Calibration, LogAlone, Spread, Warning};
+use beam_tools::identify::warnings::{
+    more_line, ranked, warnings, Calibration, LogAlone, Spread, Warning, SHOWN_WARNINGS,
+};
 use beam_tools::io::params_file::Sensors;
 use clap::Args;
 use model_core::{Beam, BeamParams, ModalModel};
@@ -489,13 +491,14 @@ fn print_json(
         .collect();
     let spread = found.spread.as_ref();
     // Warnings go to stderr as well, so a script that keeps only stdout still shows them.
-    let warnings: Vec<String> = warnings(found, names)
-        .iter()
-        .map(Warning::to_string)
-        .collect();
-    for w in &warnings {
+    let ranked = ranked(warnings(found, names));
+    for w in ranked.iter().take(SHOWN_WARNINGS) {
         eprintln!("warning: {w}");
     }
+    if let Some(more) = more_line(&ranked) {
+        eprintln!("{more}");
+    }
+    let warnings: Vec<String> = ranked.iter().map(Warning::to_string).collect();
     println!(
         "{}",
         json!({"method": a.method, "split": found.split, "steps": steps, "identified": fm, "guess": gm, "logs": logs,
@@ -656,8 +659,12 @@ fn print_spread(found: &Calibration, names: &[String]) {
         };
         println!("  {how}: {}", parts.join(", "));
     }
-    for w in warnings(found, names) {
+    let ranked = ranked(warnings(found, names));
+    for w in ranked.iter().take(SHOWN_WARNINGS) {
         println!("  warning: {w}");
+    }
+    if let Some(more) = more_line(&ranked) {
+        println!("  {more}");
     }
 }
 
