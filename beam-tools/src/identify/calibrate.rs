@@ -186,7 +186,9 @@ impl Windows {
 
 /// The windows of the move in `log`, found from the logged angle and torque, wherever it
 /// starts and whatever its amplitude: the move starts where the hub has left its first angle
-/// by 2 % of the move or the torque has risen to 5 % of its peak, whichever comes first; it
+/// by 2 % of the move or the torque has left its level at rest before the move (the median
+/// over the rest, where there is [`REST_BEFORE_S`] of it; else zero) by 5 % of its largest
+/// departure, whichever comes first; it
 /// ends where the hub is within 2 % of the move of its final angle (the mean of the last
 /// 5 % of the log) for good; the settling window runs on for the longer of 0.25 s and 70 %
 /// of the move (the paper's proportions), or to the end of the log.
@@ -202,9 +204,29 @@ pub fn find_windows(log: &Log) -> Result<Windows, LogProblem> {
         return Err(LogProblem::NoMove(travel.abs()));
     }
     let band = 0.02 * travel.abs();
-    let peak_torque = log.torque.iter().fold(0.0f64, |m, &u| m.max(u.abs()));
+    // The torque from its level at rest before the move, where the log has at least
+    // REST_BEFORE_S of it (the median over the rest, the hub not yet off its first angle):
+    // a torque read with an offset (one derived from a motor's voltage) is not a move. A
+    // log that starts moving at once has no level to take: zero.
+    let still = (0..n)
+        .find(|&k| (log.theta[k] - first).abs() > band)
+        .unwrap_or(n);
+    let level = if t(still.min(n - 1)) >= REST_BEFORE_S {
+        let mut rest: Vec<f64> = log.torque[..still].to_vec();
+        rest.sort_by(f64::total_cmp);
+        rest[rest.len() / 2]
+    } else {
+        0.0
+    };
+    let peak_torque = log
+        .torque
+        .iter()
+        .fold(0.0f64, |m, &u| m.max((u - level).abs()));
     let start = (0..n)
-        .find(|&k| (log.theta[k] - first).abs() > band || log.torque[k].abs() > 0.05 * peak_torque)
+        .find(|&k| {
+            (log.theta[k] - first).abs() > band
+                || (log.torque[k] - level).abs() > 0.05 * peak_torque
+        })
         .unwrap_or(0);
     let end = (0..n)
         .rev()

@@ -13,7 +13,7 @@ pub const MOVE_GAP_S: f64 = 0.3;
 /// Encoder steps a hub's angle may wander by, over the rate's +-10 ms window, and still be
 /// at rest: a reading that flickers between two codes moves by one step, a hub ringing with
 /// the beam after a move by a step or two more.
-const REST_STEPS: f64 = 3.0;
+pub const REST_STEPS: f64 = 3.0;
 
 /// The moves in `log`, each with the rest before it.
 ///

@@ -5,7 +5,7 @@
 //! `beam calibrate` prints them with its report and as its JSON's `warnings`.
 
 use crate::identify::calibrate::{AtBound, LogFit, StepReport, Tradeoff, Uncertainty};
-use crate::identify::split::{SplitReport, WINDOW_FACTORS, WINDOW_WARNING};
+use crate::identify::split::{HeldBeam, SplitReport, WINDOW_FACTORS, WINDOW_WARNING};
 use model_core::BeamParams;
 use std::fmt;
 
@@ -118,6 +118,9 @@ pub enum Warning {
         /// Each pair that disagrees: the logs, their values and intervals, and the sigmas.
         pairs: Vec<LogPair>,
     },
+    /// The torque balance could not split the rigid body (its free fit was not physical):
+    /// the beam was held at its starting density and the torque read true.
+    BeamHeld(HeldBeam),
     /// The found model, driven open loop by the logged torque, drifts from the logged angle.
     ReplayDrifts {
         /// The drift, deg RMS.
@@ -238,6 +241,16 @@ impl fmt::Display for Warning {
                     pairs.join("; ")
                 )
             }
+            Warning::BeamHeld(h) => {
+                let free = h.free.map_or(String::new(), |(jm, rho, s)| {
+                    format!(" (the free torque balance gave Jm {jm:.3e} kg m^2, density {rho:.4e} kg/m^3, torque scale {s:.3})")
+                });
+                write!(
+                    f,
+                    "the logs do not tell the hub's inertia from the beam's{free}: the beam is held at the starting density ({:.4e} kg/m^3) with the torque read true, and Jm and friction are fitted with them; give the density you know (--known-density) or log the move again with a weighed tip mass (--tip-masses) to measure them",
+                    h.density_kg_m3
+                )
+            }
             Warning::ReplayDrifts {
                 rms_deg,
                 percent_of_move,
@@ -288,6 +301,7 @@ impl Warning {
             | Warning::StepsDisagree { .. }
             | Warning::AtBound { .. } => 0,
             Warning::ShortRest { .. }
+            | Warning::BeamHeld(_)
             | Warning::TorqueUnplaced { .. }
             | Warning::SmoothingLimits { .. }
             | Warning::EncoderLimits { .. }
@@ -329,7 +343,7 @@ pub fn ranked(warnings: Vec<Warning>) -> Vec<Warning> {
 /// any.
 pub fn more_line(ranked: &[Warning]) -> Option<String> {
     let rest = ranked.get(SHOWN_WARNINGS..).filter(|r| !r.is_empty())?;
-    let what: Vec<String> = rest
+    let mut what: Vec<String> = rest
         .iter()
         .map(|w| match w {
             Warning::Tradeoff(t) => format!("{} with {}", t.a, t.b),
@@ -341,6 +355,9 @@ pub fn more_line(ranked: &[Warning]) -> Option<String> {
             _ => "a note on the logs".to_string(),
         })
         .collect();
+    // Each said once (a parameter limited by both the hub's smoothing and its encoder).
+    let mut seen = std::collections::HashSet::new();
+    what.retain(|w| seen.insert(w.clone()));
     Some(format!(
         "{} more, less pressing: {} (`--json` lists every one)",
         rest.len(),
@@ -422,6 +439,9 @@ pub fn warnings(found: &Calibration, names: &[String]) -> Vec<Warning> {
         out.extend(steps_disagree(&found.steps, errs));
     }
     out.extend(logs_disagree(&found.each_log, names));
+    if let Some(h) = found.split.as_ref().and_then(|s| s.beam_held) {
+        out.push(Warning::BeamHeld(h));
+    }
     if let Some(s) = found.split.as_ref().filter(|s| s.replay_drifts()) {
         out.push(Warning::ReplayDrifts {
             rms_deg: s.replay_rms_theta_err_rad.to_degrees(),

@@ -85,6 +85,9 @@ pub(super) struct Balance {
     /// Jm, the density's factor (or the torque scale), viscous, Coulomb, offset, as fitted.
     pub(super) coef: [f64; 5],
     pub(super) offset_fitted: bool,
+    /// The beam's torque taken as `params` gives it (its density held, the torque read
+    /// true; `coef[1]` is 1): the free fit was not physical ([`hold_beam`]).
+    pub(super) beam_held: bool,
 }
 
 impl Balance {
@@ -147,6 +150,8 @@ pub(super) fn solve_balance<const N: usize>(
     let mut rows = vec![];
     let mut offset_fitted = false;
     let mut coef = [0.0; 5];
+    // The first rows, on step 1's beam: what the balance falls back on ([`hold_beam`]).
+    let mut first: Option<Vec<Row>> = None;
     for _ in 0..6 {
         let both_ways;
         (rows, both_ways) =
@@ -154,6 +159,7 @@ pub(super) fn solve_balance<const N: usize>(
         if options.fit_offset && !both_ways {
             return Err(CalibrateError::OneWay);
         }
+        first.get_or_insert_with(|| rows.clone());
         offset_fitted = options.fit_offset;
         coef = fit_balance(&rows, offset_fitted)?;
         let scale_now = coef[1];
@@ -173,16 +179,47 @@ pub(super) fn solve_balance<const N: usize>(
         // said to carry a 0.1 kg tip ran the balance to 2 % of the strip's steel, where the
         // beam's model breaks down.
         let density = p.density_kg_m3 * scale_now;
+        let held = || {
+            let free = Balance {
+                params: *beam,
+                rows: first.clone().unwrap_or_default(),
+                coef,
+                offset_fitted,
+                beam_held: false,
+            };
+            hold_beam(free).ok_or(unphysical)
+        };
         if !(scale_now > 0.0) || !(1.0 / 3.0..=3.0).contains(&(density / beam.density_kg_m3)) {
-            return Err(unphysical);
+            return held();
         }
-        p = at_density::<N>(beam, inputs.exps, density).ok_or(unphysical)?;
+        match at_density::<N>(beam, inputs.exps, density) {
+            Some(q) => p = q,
+            None => return held(),
+        }
     }
     Ok(Balance {
         params: p,
         rows,
         coef,
         offset_fitted,
+        beam_held: false,
+    })
+}
+
+/// `free`, a balance whose fit is not physical (a negative Jm, density or torque scale),
+/// fitted again with the beam's torque as its `params` give it: the density held at theirs
+/// (the material's, as the user gave it, or as known) and the torque taken to read true,
+/// Jm, friction (and the offset) fitted. `None` if that is not physical either: then the
+/// logs cannot tell the rigid body at all. Short or slow moves of a flexible beam on a
+/// coarse encoder leave the hub's and the beam's inertia nearly the same column of the
+/// balance, which the free fit splits at random; the material's density is known far
+/// better than that.
+pub(super) fn hold_beam(free: Balance) -> Option<Balance> {
+    let coef = fit_balance_as(&free.rows, free.offset_fitted, true).ok()?;
+    (coef[0] > 0.0).then_some(Balance {
+        coef,
+        beam_held: true,
+        ..free
     })
 }
 
@@ -301,12 +338,41 @@ pub(super) fn fit_balance(rows: &[Row], offset: bool) -> Result<[f64; 5], Calibr
     }))
 }
 
+/// [`fit_balance`], or with the beam held (`held`): its column moved to the torque's side
+/// with a coefficient of 1, the rest fitted.
+pub(super) fn fit_balance_as(
+    rows: &[Row],
+    offset: bool,
+    held: bool,
+) -> Result<[f64; 5], CalibrateError> {
+    if !held {
+        return fit_balance(rows, offset);
+    }
+    let cols: &[usize] = if offset { &[0, 2, 3, 4] } else { &[0, 2, 3] };
+    let mut n = Normal::new(cols.len());
+    for r in rows {
+        let x: Vec<f64> = cols.iter().map(|&i| r.x[i]).collect();
+        n.add(&x, r.y - r.x[1]);
+    }
+    let f = n
+        .solve()
+        .ok_or(CalibrateError::TooLittleMotion(rows.len()))?;
+    let mut coef = [0.0; 5];
+    coef[1] = 1.0;
+    for (&i, c) in cols.iter().zip(&f.coef) {
+        coef[i] = *c;
+    }
+    Ok(coef)
+}
+
 /// The balance refitted on [`BOOTSTRAP`] moving-block resamples of its rows (blocks of
-/// `block_s` at the first log's rate); resamples whose fit is singular are skipped.
+/// `block_s` at the first log's rate), the beam held if `held`; resamples whose fit is
+/// singular are skipped.
 pub(super) fn bootstrap(
     rows: &[Row],
     exps: &[Experiment],
     offset: bool,
+    held: bool,
     block_s: f64,
 ) -> Vec<[f64; 5]> {
     let dt = exps[0].log.t[1] - exps[0].log.t[0];
@@ -321,7 +387,7 @@ pub(super) fn bootstrap(
             sample.extend_from_slice(&rows[s..s + block]);
         }
         sample.truncate(rows.len());
-        if let Ok(c) = fit_balance(&sample, offset) {
+        if let Ok(c) = fit_balance_as(&sample, offset, held) {
             out.push(c);
         }
     }

@@ -104,6 +104,15 @@ pub const MIN_BLOCK_S: f64 = 2.0 * BALANCE_INTERVAL_S;
 /// the same constant.
 pub const BOTH_WAYS_FRACTION: f64 = 0.2;
 
+/// The balance's beam held at its density, the torque read true ([`SplitReport::beam_held`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct HeldBeam {
+    /// The density held, kg/m^3.
+    pub density_kg_m3: f64,
+    /// What the free fit gave, if it ran to the end: Jm, density, torque scale.
+    pub free: Option<(f64, f64, f64)>,
+}
+
 /// What the split found besides the beam's parameters.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SplitReport {
@@ -155,6 +164,10 @@ pub struct SplitReport {
     /// of motion, found by fitting an offset too; when set, the offset was fitted for it
     /// (`offset_fitted`). `None`: none, or not testable.
     pub unplaced_offset: Option<UnplacedOffset>,
+    /// The free balance was not physical, so the beam's torque was held at its density
+    /// with the torque read true, Jm and friction fitted with it. `None`: the free fit
+    /// stood.
+    pub beam_held: Option<HeldBeam>,
 }
 
 /// Step 1's global search stops each local search when its step is below this (relative,
@@ -380,16 +393,24 @@ fn rigid_body<const N: usize>(
     options: &SplitOptions,
 ) -> Result<(BeamParams, Sensors, SplitReport), CalibrateError> {
     let (exps, reference) = (inputs.exps, options.reference);
-    let balance = solve_balance::<N>(inputs, &views.hubs, &beam.params, options)?;
-    let d = balance.derived(&balance.coef, reference);
+    let mut balance = solve_balance::<N>(inputs, &views.hubs, &beam.params, options)?;
+    let mut d = balance.derived(&balance.coef, reference);
+    let free = (!balance.beam_held).then_some(d);
     if !physical(&d) {
-        return Err(CalibrateError::Unphysical {
+        let unphysical = CalibrateError::Unphysical {
             jm: d[0],
             density: d[1],
             torque_scale: d[4],
             cause: unphysical_cause(&balance, reference),
-        });
+        };
+        balance = hold_beam(balance).ok_or(unphysical)?;
+        d = balance.derived(&balance.coef, reference);
     }
+    // What the free fit gave, when the beam had to be held: said with the result.
+    let beam_held = balance.beam_held.then(|| HeldBeam {
+        density_kg_m3: balance.params.density_kg_m3,
+        free: free.map(|f| (f[0], f[1], f[4])),
+    });
     // Friction cannot be negative: a balance that finds it so is held at zero, and said.
     let mut at_bound = beam.at_bound.clone();
     for (name, value) in [("viscous_nms", d[2]), ("coulomb_nm", d[3])] {
@@ -452,6 +473,7 @@ fn rigid_body<const N: usize>(
             encoder_step_given: options.encoder_step_rad.is_some(),
             at_bound,
             unplaced_offset,
+            beam_held,
         },
     ))
 }
@@ -475,7 +497,9 @@ fn unphysical_cause(balance: &Balance, reference: Reference) -> UnphysicalCause 
     if balance.offset_fitted || !moves_both_ways(&balance.rows) {
         return UnphysicalCause::Unknown;
     }
-    match fit_balance(&balance.rows, true).map(|c| balance.derived(&c, reference)) {
+    match fit_balance_as(&balance.rows, true, balance.beam_held)
+        .map(|c| balance.derived(&c, reference))
+    {
         Ok(d) if physical(&d) => UnphysicalCause::Offset {
             offset_nm: d[5],
             jm: d[0],
@@ -508,7 +532,7 @@ fn unplaced_offset(
     if balance.offset_fitted || !moves_both_ways(&balance.rows) {
         return None;
     }
-    let coef = fit_balance(&balance.rows, true).ok()?;
+    let coef = fit_balance_as(&balance.rows, true, balance.beam_held).ok()?;
     let resid: Vec<f64> = balance
         .rows
         .iter()
@@ -517,7 +541,7 @@ fn unplaced_offset(
     let rms_with = (resid.iter().map(|r| r * r).sum::<f64>() / resid.len().max(1) as f64).sqrt();
     let dt0 = exps[0].log.t[1] - exps[0].log.t[0];
     let block_s = (2.0 * decorrelation_lag(&resid) as f64 * dt0).max(MIN_BLOCK_S);
-    let boot: Vec<f64> = bootstrap(&balance.rows, exps, true, block_s)
+    let boot: Vec<f64> = bootstrap(&balance.rows, exps, true, balance.beam_held, block_s)
         .into_iter()
         .map(|c| balance.derived(&c, reference)[5])
         .collect();
@@ -655,6 +679,7 @@ mod tests {
             rows,
             coef,
             offset_fitted: false,
+            beam_held: false,
         }
     }
 

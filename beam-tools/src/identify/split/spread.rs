@@ -17,6 +17,9 @@ pub(super) struct BalanceSpread {
     /// The results this reference reports (indices into [`BALANCE_NAMES`]).
     pub(super) used: Vec<usize>,
     pub(super) reference: Reference,
+    /// The beam was held ([`Balance::beam_held`]): its density and the torque's scale are
+    /// not results.
+    pub(super) beam_held: bool,
 }
 
 pub(super) fn balance_spread<const N: usize>(
@@ -41,7 +44,8 @@ pub(super) fn balance_spread<const N: usize>(
         .collect();
     let dt0 = exps[0].log.t[1] - exps[0].log.t[0];
     let block_s = (2.0 * decorrelation_lag(&resid) as f64 * dt0).max(MIN_BLOCK_S);
-    let boot = bootstrap(&balance.rows, exps, offset_fitted, block_s)
+    let held = balance.beam_held;
+    let boot = bootstrap(&balance.rows, exps, offset_fitted, held, block_s)
         .into_iter()
         .map(|c| balance.derived(&c, reference))
         .collect::<Vec<_>>();
@@ -55,7 +59,7 @@ pub(super) fn balance_spread<const N: usize>(
     let mut shift = [0.0f64; 6];
     for alt in &views.alt_hubs {
         let (alt_rows, _) = balance_rows::<N>(exps, alt, inputs.rates, p, inputs.observers)?;
-        let da = balance.derived(&fit_balance(&alt_rows, offset_fitted)?, reference);
+        let da = balance.derived(&fit_balance_as(&alt_rows, offset_fitted, held)?, reference);
         for (s, (a, b)) in shift.iter_mut().zip(da.iter().zip(d)) {
             *s = s.max((a - b).abs());
         }
@@ -69,7 +73,7 @@ pub(super) fn balance_spread<const N: usize>(
             .map(|l| HubMotion::of(l, BALANCE_RATE_WINDOW_S))
             .collect();
         let (alt_rows, _) = balance_rows::<N>(exps, hub, &enc_rates, p, inputs.observers)?;
-        let da = balance.derived(&fit_balance(&alt_rows, offset_fitted)?, reference);
+        let da = balance.derived(&fit_balance_as(&alt_rows, offset_fitted, held)?, reference);
         for (s, (a, b)) in encoder.iter_mut().zip(da.iter().zip(d)) {
             *s += (a - b).powi(2) / ENCODER_PHASES.len() as f64;
         }
@@ -82,8 +86,8 @@ pub(super) fn balance_spread<const N: usize>(
     // The balance's results this reference reports.
     let used: Vec<usize> = (0..6)
         .filter(|&i| match i {
-            1 => matches!(reference, Reference::Torque),
-            4 => reference.measures_scale(),
+            1 => matches!(reference, Reference::Torque) && !held,
+            4 => reference.measures_scale() && !held,
             5 => offset_fitted,
             _ => true,
         })
@@ -96,6 +100,7 @@ pub(super) fn balance_spread<const N: usize>(
         sd,
         used,
         reference,
+        beam_held: held,
     })
 }
 
@@ -179,6 +184,7 @@ pub(super) fn uncertainties(
     let level = |sd: f64, value: f64| (sd * sd + (rel_level * value).powi(2)).sqrt();
     add("jm_kgm2", found.jm_kgm2, level(sd[0], found.jm_kgm2));
     match reference {
+        Reference::Torque if spread.beam_held => {}
         Reference::Torque => add("density_kg_m3", found.density_kg_m3, sd[1]),
         Reference::Density(_) => {}
         Reference::TipMass => add(
@@ -208,7 +214,7 @@ pub(super) fn uncertainties(
         found.coulomb_nm,
         level(sd[3], found.coulomb_nm),
     );
-    if reference.measures_scale() {
+    if reference.measures_scale() && !spread.beam_held {
         add(
             "torque_scale",
             sensors.torque_scale,
