@@ -173,4 +173,42 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
         );
         assert!(off.abs() < 0.03, "{logs:?}: {found} Hz against {want} Hz");
     }
+    // Held out: calibrated on the step up, the step down replayed. The tip within 15 % RMS
+    // (the hub prescribed); the open-loop hub is printed: the torque's 10 % scale error and
+    // its offset are not identified from one direction, and it drifts (docs/results.md).
+    let found = dir.join("up.toml");
+    let columns = "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m";
+    let out = common::beam(&[
+        "calibrate",
+        up,
+        "--params",
+        params,
+        "--columns",
+        columns,
+        "--out",
+        found.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r = common::json(&common::beam(&[
+        "replay",
+        down,
+        "--params",
+        found.to_str().unwrap(),
+        "--columns",
+        columns,
+        "--json",
+    ]));
+    let (tip, hub) = (
+        r["beam_rel_err"].as_f64().unwrap(),
+        r["hub_rms_err_deg"].as_f64().unwrap(),
+    );
+    eprintln!(
+        "held out (down, from up): tip {:.1} % RMS, open-loop hub {hub:.1} deg RMS",
+        100.0 * tip
+    );
+    assert!(tip < 0.15, "tip {tip}");
 }
