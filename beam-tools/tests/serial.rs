@@ -258,6 +258,12 @@ fn a_late_reply_to_an_earlier_run_is_never_taken_for_this_runs() {
 
 #[test]
 fn typed_at_a_terminal_each_line_runs_as_it_comes_and_quit_ends_the_session() {
+    // Asked for with `--script -`, or by giving no commands at all.
+    typed_session(&["--script", "-"]);
+    typed_session(&[]);
+}
+
+fn typed_session(how: &[&str]) {
     use std::io::BufRead;
     let (master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
     let path = slave.name().expect("the tty's name");
@@ -267,7 +273,8 @@ fn typed_at_a_terminal_each_line_runs_as_it_comes_and_quit_ends_the_session() {
         std::thread::spawn(move || fake_drive(master, stop, usize::MAX, Duration::ZERO, false))
     };
     let mut child = Command::new(env!("CARGO_BIN_EXE_beam"))
-        .args(["drive", "--port", &path, "--script", "-"])
+        .args(["drive", "--port", &path])
+        .args(how)
         .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())

@@ -47,7 +47,8 @@ pub struct DriveArgs {
     /// With --port: how long to wait for each reply, ms.
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=60_000))]
     reply_timeout_ms: u64,
-    /// The script: one command per line, `-` for stdin (see below).
+    /// The script: one command per line, `-` for stdin (see below). With --port and no
+    /// commands at all, stdin too: each line runs as it is typed.
     #[arg(long, value_name = "FILE", conflicts_with = "session")]
     script: Option<PathBuf>,
     /// The built-in session: moves, waypoints, a payload change, a stop, a fault.
@@ -145,9 +146,17 @@ pub fn run(a: &DriveArgs) -> anyhow::Result<()> {
         bail!("--home {} must be within +-180 deg", a.home);
     }
     if let Some(port) = &a.port {
-        if a.script.as_deref() == Some(std::path::Path::new("-")) {
-            // A session: each line runs as it is typed (or piped), its replies printed at
-            // once; `quit` or the end of input ends it.
+        // A session, asked for (`--script -`) or by giving no commands at all: each line
+        // runs as it is typed (or piped), its replies printed at once; `quit` or the end of
+        // input ends it.
+        let given = a.script.is_some() || a.session || !a.words.is_empty();
+        if a.script.as_deref() == Some(std::path::Path::new("-")) || !given {
+            use std::io::IsTerminal;
+            if std::io::stdin().is_terminal() {
+                eprintln!(
+                    "beam drive: {port}: a command a line, each run as you type it (`status`, `move DEG`, `stop`, ...); `quit` or Ctrl-D ends"
+                );
+            }
             let lines = std::io::stdin().lines().map_while(Result::ok);
             let batches = lines
                 .take_while(|l| !drive_script::is_quit(l))
@@ -212,7 +221,7 @@ fn read_script(a: &DriveArgs) -> anyhow::Result<Vec<Step>> {
             };
             drive_script::parse(&text).with_context(|| path.display().to_string())?
         }
-        _ => bail!("give the commands: --script FILE (or -), --session, or on the command line"),
+        _ => bail!("give the commands: --script FILE (or -), --session, or on the command line (with --port and none of these, they are read from stdin as typed)"),
     };
     Ok(with_done_max(script, a))
 }
