@@ -5,7 +5,7 @@
 //! `beam calibrate` prints them with its report and as its JSON's `warnings`.
 
 use crate::identify::calibrate::{AtBound, LogFit, StepReport, Tradeoff, Uncertainty};
-use crate::identify::split::{HeldBeam, SplitReport, WINDOW_FACTORS, WINDOW_WARNING};
+use crate::identify::split::{HeldBeam, RestOffset, SplitReport, WINDOW_FACTORS, WINDOW_WARNING};
 use model_core::BeamParams;
 use std::fmt;
 
@@ -121,6 +121,8 @@ pub enum Warning {
     /// The torque balance could not split the rigid body (its free fit was not physical):
     /// the beam was held at its starting density and the torque read true.
     BeamHeld(HeldBeam),
+    /// The torque read other than zero at rest before the moves: taken as its offset.
+    RestOffset(RestOffset),
     /// The found model, driven open loop by the logged torque, drifts from the logged angle.
     ReplayDrifts {
         /// The drift, deg RMS.
@@ -241,6 +243,11 @@ impl fmt::Display for Warning {
                     pairs.join("; ")
                 )
             }
+            Warning::RestOffset(o) => write!(
+                f,
+                "the torque reads {:.3e} +- {:.1e} N m at rest before the moves, where the hub takes none: taken as the torque's offset and subtracted (the parameter file's torque_offset_nm carries it)",
+                o.offset_nm, o.std_err_nm
+            ),
             Warning::BeamHeld(h) => {
                 let free = h.free.map_or(String::new(), |(jm, rho, s)| {
                     format!(" (the free torque balance gave Jm {jm:.3e} kg m^2, density {rho:.4e} kg/m^3, torque scale {s:.3})")
@@ -306,7 +313,10 @@ impl Warning {
             | Warning::SmoothingLimits { .. }
             | Warning::EncoderLimits { .. }
             | Warning::NoEffect => 1,
-            Warning::Note(_) | Warning::UnmeasuredMid { .. } | Warning::LagFitted { .. } => 2,
+            Warning::Note(_)
+            | Warning::UnmeasuredMid { .. }
+            | Warning::LagFitted { .. }
+            | Warning::RestOffset(_) => 2,
             Warning::Tradeoff(_) | Warning::Unpinned(_) => 3,
         }
     }
@@ -439,6 +449,9 @@ pub fn warnings(found: &Calibration, names: &[String]) -> Vec<Warning> {
         out.extend(steps_disagree(&found.steps, errs));
     }
     out.extend(logs_disagree(&found.each_log, names));
+    if let Some(o) = found.split.as_ref().and_then(|s| s.rest_offset) {
+        out.push(Warning::RestOffset(o));
+    }
     if let Some(h) = found.split.as_ref().and_then(|s| s.beam_held) {
         out.push(Warning::BeamHeld(h));
     }

@@ -32,7 +32,7 @@
 use crate::fit::{minimise, Param};
 use crate::identify::calibrate::{
     lagged, replay, AtBound, BeamSensor, CalibrateError, Experiment, Log, Tradeoff, Uncertainty,
-    UnphysicalCause,
+    UnphysicalCause, REST_BEFORE_S,
 };
 use crate::identify::lsq::Normal;
 use crate::identify::replay::{
@@ -168,6 +168,9 @@ pub struct SplitReport {
     /// with the torque read true, Jm and friction fitted with it. `None`: the free fit
     /// stood.
     pub beam_held: Option<HeldBeam>,
+    /// The torque read at rest before the moves, taken out as its offset (and in
+    /// `sensors`). `None`: no rest, or none to take out.
+    pub rest_offset: Option<RestOffset>,
 }
 
 /// Step 1's global search stops each local search when its step is below this (relative,
@@ -327,6 +330,24 @@ pub fn calibrate_split<const N: usize>(
              measures the tip's deflection)",
         ));
     }
+    // A torque that reads other than zero at rest before every move is the torque's
+    // offset: taken out here, put back into the sensors found.
+    let rest = rest_offset(exps);
+    let shifted: Vec<Experiment>;
+    let exps = match rest {
+        Some(o) => {
+            shifted = exps
+                .iter()
+                .map(|e| {
+                    let mut e = e.clone();
+                    e.log.torque.iter_mut().for_each(|u| *u -= o.offset_nm);
+                    e
+                })
+                .collect();
+            &shifted[..]
+        }
+        None => exps,
+    };
     let g = starting_params(exps, guess, reference)?;
     let window = hub_window_s(&g);
     let views = HubViews::of(exps, window, options.encoder_step_rad);
@@ -369,7 +390,7 @@ pub fn calibrate_split<const N: usize>(
     let first = rigid_body::<N>(&inputs, &views, &beam, options)?;
     // A torque the balance could not place in either direction ([`unplaced_offset`]): the
     // rigid body again with an offset (step 1, the beam, does not depend on it), and said.
-    match first.2.unplaced_offset {
+    let (found, mut sensors, mut report) = match first.2.unplaced_offset {
         Some(u) => {
             let with_offset = SplitOptions {
                 fit_offset: true,
@@ -378,10 +399,79 @@ pub fn calibrate_split<const N: usize>(
             let (found, sensors, mut report) =
                 rigid_body::<N>(&inputs, &views, &beam, &with_offset)?;
             report.unplaced_offset = Some(u);
-            Ok((found, sensors, report))
+            (found, sensors, report)
         }
-        None => Ok(first),
+        None => first,
+    };
+    if let Some(o) = rest {
+        sensors.torque_offset_nm += o.offset_nm;
+        report.sensors = sensors;
+        report.rest_offset = Some(o);
     }
+    Ok((found, sensors, report))
+}
+
+/// The torque's reading at rest before the moves ([`rest_offset`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct RestOffset {
+    /// The torque read at rest, N m (the median over every log's rest).
+    pub offset_nm: f64,
+    /// Its one-sigma error, N m (the rests' spread over the root of their length).
+    pub std_err_nm: f64,
+}
+
+/// How many of its errors the torque at rest must be from zero to be taken as an offset.
+pub const REST_OFFSET_SIGMAS: f64 = 4.0;
+
+/// The torque every log reads at rest before its move, when each has at least
+/// [`REST_BEFORE_S`] of it (to 20 ms before the move's start), they agree within three
+/// combined errors, and it is [`REST_OFFSET_SIGMAS`] of its error from zero: the hub held
+/// still on its first angle by a controller with nothing to correct takes no torque, so
+/// what the torque reads there is its zero's offset (a torque derived from a motor's
+/// voltage and speed carries one). `None` otherwise: a log that starts moving, or rests
+/// that disagree (a controller holding the hub against something).
+pub fn rest_offset(exps: &[Experiment]) -> Option<RestOffset> {
+    let mut levels = vec![];
+    for e in exps {
+        let t0 = e.log.t[0];
+        let until = e.windows.start_s - 0.02;
+        if e.windows.start_s < REST_BEFORE_S {
+            return None;
+        }
+        let mut rest: Vec<f64> = e
+            .log
+            .t
+            .iter()
+            .zip(&e.log.torque)
+            .filter(|(t, _)| **t - t0 <= until)
+            .map(|(_, u)| *u)
+            .collect();
+        if rest.len() < 20 {
+            return None;
+        }
+        rest.sort_by(f64::total_cmp);
+        let median = rest[rest.len() / 2];
+        let mut dev: Vec<f64> = rest.iter().map(|u| (u - median).abs()).collect();
+        dev.sort_by(f64::total_cmp);
+        // The spread (1.4826 MAD), over the root of the samples: the median's error, near
+        // enough.
+        let err = 1.4826 * dev[dev.len() / 2] / (rest.len() as f64).sqrt();
+        levels.push((median, err.max(1e-12)));
+    }
+    let (first, first_err) = *levels.first()?;
+    if levels
+        .iter()
+        .any(|(l, e)| (l - first).abs() > 3.0 * e.hypot(first_err))
+    {
+        return None;
+    }
+    let weight: f64 = levels.iter().map(|(_, e)| 1.0 / (e * e)).sum();
+    let offset_nm = levels.iter().map(|(l, e)| l / (e * e)).sum::<f64>() / weight;
+    let std_err_nm = weight.sqrt().recip();
+    (offset_nm.abs() > REST_OFFSET_SIGMAS * std_err_nm).then_some(RestOffset {
+        offset_nm,
+        std_err_nm,
+    })
 }
 
 /// Step 2 and what follows it, on step 1's `beam`: the torque balance, its spread, the
@@ -474,6 +564,7 @@ fn rigid_body<const N: usize>(
             at_bound,
             unplaced_offset,
             beam_held,
+            rest_offset: None,
         },
     ))
 }
