@@ -223,3 +223,59 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
         .unwrap();
     assert!((offset - 0.02).abs() < 0.002, "offset {offset} N m");
 }
+
+#[test]
+fn a_log_cut_inside_its_move_is_refused_naming_that() {
+    // The step up's log from 0.1 s into its 0.3 s move: the hub already turns.
+    let dir = common::scratch("second-rig-cut");
+    let full = rig_log(0.0, 0.1, 3);
+    let mut lines = full.lines();
+    let mut cut = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        let t: f64 = l.split(',').next().unwrap().parse().unwrap();
+        if t >= 2.1 {
+            cut.push_str(l);
+            cut.push('\n');
+        }
+    }
+    let file = dir.join("cut.csv");
+    std::fs::write(&file, cut).unwrap();
+    let t = truth();
+    let params = dir.join("truth.toml");
+    std::fs::write(
+        &params,
+        format!(
+            "length_m = {}\nwidth_m = {}\nthickness_m = {}\nhub_radius_m = {}\n\
+             density_kg_m3 = {}\nei_nm2 = {}\njm_kgm2 = {}\nviscous_nms = {}\n\
+             coulomb_nm = {}\ntip_mass_kg = 0.0\ndamping_ratio = {}\nroot_gauge_m = 0.0\n\
+             mid_gauge_m = {}\ntorque_limit_nm = 10.0\n",
+            t.length_m,
+            t.width_m,
+            t.thickness_m,
+            t.hub_radius_m,
+            t.density_kg_m3,
+            t.ei_nm2,
+            t.jm_kgm2,
+            t.viscous_nms,
+            t.coulomb_nm,
+            t.damping_ratio,
+            t.mid_gauge_m,
+        ),
+    )
+    .unwrap();
+    let out = common::beam(&[
+        "calibrate",
+        file.to_str().unwrap(),
+        "--params",
+        params.to_str().unwrap(),
+        "--columns",
+        "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    // Refused, and for that reason, not the tip mass's or the gauge's.
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("starts inside a move") && err.contains("--from"),
+        "{err}"
+    );
+}

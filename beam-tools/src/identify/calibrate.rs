@@ -102,6 +102,13 @@ pub enum CalibrateError {
 pub enum UnphysicalCause {
     /// Nothing the balance can test: the general advice.
     Unknown,
+    /// A log starts inside a move: the balance's rigid body has no start from rest.
+    StartsMoving {
+        /// The log's place among the logs, from 0.
+        log: usize,
+        /// The hub's rate at its start, as a fraction of its peak.
+        fraction: f64,
+    },
     /// The logs move both ways, and the same balance given a torque offset is physical.
     Offset {
         /// The offset it then finds, N m.
@@ -118,6 +125,14 @@ impl std::fmt::Display for UnphysicalCause {
                 f,
                 "the logs do not determine the rigid body, or the starting parameters (tip \
                  mass, gauge) do not describe the rig"
+            ),
+            UnphysicalCause::StartsMoving { log, fraction } => write!(
+                f,
+                "log {} starts inside a move (its hub already turns at {:.0} % of its peak rate \
+                 at the first samples) and the split takes the beam as at rest there: cut it \
+                 from before the move (--from), or log the rest before it",
+                log + 1,
+                100.0 * fraction
             ),
             UnphysicalCause::Offset { offset_nm, jm } => write!(
                 f,

@@ -483,15 +483,40 @@ fn rigid_body<const N: usize>(
     options: &SplitOptions,
 ) -> Result<(BeamParams, Sensors, SplitReport), CalibrateError> {
     let (exps, reference) = (inputs.exps, options.reference);
-    let mut balance = solve_balance::<N>(inputs, &views.hubs, &beam.params, options)?;
+    // A balance the density's iteration found unphysical: a log cut inside a move is the
+    // likelier cause than the general one, where it is so.
+    let mut balance =
+        solve_balance::<N>(inputs, &views.hubs, &beam.params, options).map_err(|e| {
+            match (e, starts_moving(exps)) {
+                (
+                    CalibrateError::Unphysical {
+                        jm,
+                        density,
+                        torque_scale,
+                        cause: UnphysicalCause::Unknown,
+                    },
+                    Some((log, fraction)),
+                ) => CalibrateError::Unphysical {
+                    jm,
+                    density,
+                    torque_scale,
+                    cause: UnphysicalCause::StartsMoving { log, fraction },
+                },
+                (e, _) => e,
+            }
+        })?;
     let mut d = balance.derived(&balance.coef, reference);
     let free = (!balance.beam_held).then_some(d);
     if !physical(&d) {
+        let cause = match starts_moving(exps) {
+            Some((log, fraction)) => UnphysicalCause::StartsMoving { log, fraction },
+            None => unphysical_cause(&balance, reference),
+        };
         let unphysical = CalibrateError::Unphysical {
             jm: d[0],
             density: d[1],
             torque_scale: d[4],
-            cause: unphysical_cause(&balance, reference),
+            cause,
         };
         balance = hold_beam(balance).ok_or(unphysical)?;
         d = balance.derived(&balance.coef, reference);
@@ -567,6 +592,19 @@ fn rigid_body<const N: usize>(
             rest_offset: None,
         },
     ))
+}
+
+/// The first log whose hub already turns at its start (over the first 10 ms, at more
+/// than a tenth of its peak rate), and that fraction: a log cut inside a move.
+fn starts_moving(exps: &[Experiment]) -> Option<(usize, f64)> {
+    exps.iter().enumerate().find_map(|(i, e)| {
+        let hub = HubMotion::of(&e.log, 0.01);
+        let dt = e.log.t[1] - e.log.t[0];
+        let k = ((0.01 / dt).round() as usize).min(hub.omega.len() - 1);
+        let peak = hub.omega.iter().fold(0.0f64, |m, w| m.max(w.abs()));
+        let fraction = hub.omega[k].abs() / peak;
+        (peak > 0.0 && fraction > 0.1).then_some((i, fraction))
+    })
 }
 
 /// Jm, the density and the torque scale of derived balance results are all positive.
