@@ -4,6 +4,8 @@
 //! identified model must recover the rigid-body inertia within 5 % and the first hub-free
 //! frequency within 2 %.
 
+mod common;
+
 use beam_sim::sim::{simulate, SimOptions};
 use beam_tools::identify::calibrate::{calibrate, find_windows, read_log, read_log_with, Columns};
 use beam_tools::io::files::write_trace_csv;
@@ -335,24 +337,14 @@ fn other_rig_log(
     time_s: f32,
     seed: u64,
 ) -> beam_tools::identify::calibrate::Log {
-    let run = simulate(
-        &model(truth),
-        Law::Pd(PdGains::BASELINE),
-        &SimOptions {
-            duration_s: 2.5,
-            motion: beam_sim::sim::Motion {
-                from_rad: (-deg / 2.0).to_radians() as f32,
-                to_rad: (deg / 2.0).to_radians() as f32,
-                time_s,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let mut csv = Vec::new();
-    write_trace_csv(&run, &mut csv).unwrap();
-    let full = read_log(std::str::from_utf8(&csv).unwrap(), "rig.csv").unwrap();
+    let csv = common::pd_move_csv(
+        truth,
+        (-deg / 2.0).to_radians() as f32,
+        (deg / 2.0).to_radians() as f32,
+        time_s,
+        2.5,
+    );
+    let full = read_log(&csv, "rig.csv").unwrap();
     let mut log = full.clone();
     let keep = |v: &Vec<f64>| v.iter().step_by(2).copied().collect::<Vec<_>>();
     log.t = keep(&full.t);

@@ -10,9 +10,8 @@
 
 mod common;
 
-use beam_sim::sim::{simulate, Motion, SimOptions};
-use beam_tools::io::files::write_trace_csv;
-use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
+use beam_tools::io::params_file;
+use model_core::{Beam, BeamParams, ModalModel};
 
 /// The rig: a 0.62 m strip of 0.8 mm steel on a hub of 0.01 kg m^2, with friction.
 fn truth() -> BeamParams {
@@ -43,26 +42,7 @@ fn clamped_hz(p: BeamParams) -> f64 {
 
 /// The rig's log of a PD step from `from` to `to` rad in 0.3 s: 2 s at rest, then 5 s.
 fn rig_log(from: f32, to: f32, seed: u64) -> String {
-    let p = truth();
-    let model = ModalModel::<3>::try_build(&Beam::try_build(p).unwrap()).unwrap();
-    let run = simulate(
-        &model,
-        Law::Pd(PdGains::BASELINE),
-        &SimOptions {
-            duration_s: 5.0,
-            motion: Motion {
-                from_rad: from,
-                to_rad: to,
-                time_s: 0.3,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let mut csv = Vec::new();
-    write_trace_csv(&run, &mut csv).unwrap();
-    let csv = String::from_utf8(csv).unwrap();
+    let csv = common::pd_move_csv(truth(), from, to, 0.3, 5.0);
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
@@ -125,23 +105,7 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
     let params = dir.join("guess.toml");
     std::fs::write(
         &params,
-        format!(
-            "length_m = {}\nwidth_m = {}\nthickness_m = {}\nhub_radius_m = {}\n\
-             density_kg_m3 = {}\nei_nm2 = {}\njm_kgm2 = {}\nviscous_nms = {}\n\
-             coulomb_nm = {}\ntip_mass_kg = 0.0\ndamping_ratio = {}\nroot_gauge_m = 0.0\n\
-             mid_gauge_m = {}\ntorque_limit_nm = 10.0\n",
-            guess.length_m,
-            guess.width_m,
-            guess.thickness_m,
-            guess.hub_radius_m,
-            guess.density_kg_m3,
-            guess.ei_nm2,
-            guess.jm_kgm2,
-            guess.viscous_nms,
-            guess.coulomb_nm,
-            guess.damping_ratio,
-            guess.mid_gauge_m,
-        ),
+        params_file::render(&guess, "the drawing's, 10 % thick"),
     )
     .unwrap();
     let want = clamped_hz(t);
@@ -242,27 +206,7 @@ fn a_log_cut_inside_its_move_is_refused_naming_that() {
     std::fs::write(&file, cut).unwrap();
     let t = truth();
     let params = dir.join("truth.toml");
-    std::fs::write(
-        &params,
-        format!(
-            "length_m = {}\nwidth_m = {}\nthickness_m = {}\nhub_radius_m = {}\n\
-             density_kg_m3 = {}\nei_nm2 = {}\njm_kgm2 = {}\nviscous_nms = {}\n\
-             coulomb_nm = {}\ntip_mass_kg = 0.0\ndamping_ratio = {}\nroot_gauge_m = 0.0\n\
-             mid_gauge_m = {}\ntorque_limit_nm = 10.0\n",
-            t.length_m,
-            t.width_m,
-            t.thickness_m,
-            t.hub_radius_m,
-            t.density_kg_m3,
-            t.ei_nm2,
-            t.jm_kgm2,
-            t.viscous_nms,
-            t.coulomb_nm,
-            t.damping_ratio,
-            t.mid_gauge_m,
-        ),
-    )
-    .unwrap();
+    std::fs::write(&params, params_file::render(&t, "the rig's")).unwrap();
     let out = common::beam(&[
         "calibrate",
         file.to_str().unwrap(),

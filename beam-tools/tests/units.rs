@@ -3,11 +3,9 @@
 
 mod common;
 
-use beam_sim::sim::{simulate, Motion, SimOptions};
 use beam_tools::identify::calibrate::{read_log, Log};
 use beam_tools::identify::units::{unit_mistake, UnitMistake};
-use beam_tools::io::files::write_trace_csv;
-use model_core::{Beam, BeamParams, Law, ModalModel, PdGains};
+use model_core::BeamParams;
 
 /// A PD move of `deg` in `time_s` on `params`, 1 s, as its CSV log reads back.
 fn log_of(params: BeamParams, deg: f32, time_s: f32) -> Log {
@@ -16,25 +14,7 @@ fn log_of(params: BeamParams, deg: f32, time_s: f32) -> Log {
 
 /// The CSV log of [`log_of`]'s move.
 fn csv_of(params: BeamParams, deg: f32, time_s: f32) -> String {
-    let model = ModalModel::<3>::try_build(&Beam::try_build(params).unwrap()).unwrap();
-    let run = simulate(
-        &model,
-        Law::Pd(PdGains::BASELINE),
-        &SimOptions {
-            duration_s: 1.0,
-            motion: Motion {
-                from_rad: 0.0,
-                to_rad: deg.to_radians(),
-                time_s,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let mut csv = Vec::new();
-    write_trace_csv(&run, &mut csv).unwrap();
-    String::from_utf8(csv).unwrap()
+    common::pd_move_csv(params, 0.0, deg.to_radians(), time_s, 1.0)
 }
 
 fn scaled(log: &Log, f: impl Fn(&mut Log)) -> Log {

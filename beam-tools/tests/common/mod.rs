@@ -69,3 +69,36 @@ pub fn qemu_present() -> bool {
     }
     found
 }
+
+/// The CSV log (`write_trace_csv`'s columns) of a PD move of a 3-mode model of `params`
+/// from `from_rad` to `to_rad` in `time_s`, simulated for `duration_s`: the logs the
+/// calibration tests take apart.
+pub fn pd_move_csv(
+    params: model_core::BeamParams,
+    from_rad: f32,
+    to_rad: f32,
+    time_s: f32,
+    duration_s: f64,
+) -> String {
+    use beam_sim::sim::{simulate, Motion, SimOptions};
+    let beam = model_core::Beam::try_build(params).expect("the test's beam builds");
+    let model = model_core::ModalModel::<3>::try_build(&beam).expect("its model builds");
+    let run = simulate(
+        &model,
+        model_core::Law::Pd(model_core::PdGains::BASELINE),
+        &SimOptions {
+            duration_s,
+            motion: Motion {
+                from_rad,
+                to_rad,
+                time_s,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+    )
+    .expect("the move simulates");
+    let mut csv = Vec::new();
+    beam_tools::io::files::write_trace_csv(&run, &mut csv).expect("writes to memory");
+    String::from_utf8(csv).expect("the CSV is text")
+}
