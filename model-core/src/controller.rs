@@ -315,9 +315,6 @@ struct State {
     /// Added to the reference's angle: a brake's plan is moved onto the hub where its first
     /// tick finds it (0 for a move).
     ref_offset: f32,
-    /// A gauge fault latched under torque: the law is given a strain of zero (cleared with
-    /// the fault).
-    gauge_lost: bool,
 }
 
 /// The drive's range, rad: moves are planned within +-this of the encoder's zero (the

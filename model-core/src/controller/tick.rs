@@ -43,7 +43,6 @@ impl<const K: usize> Controller<K> {
                 // read at three times its gain gives as readily as a bent beam) does not
                 // cut the torque under a moving hub, which would coast on: the move and
                 // the hold go on without the gauge (see `GAUGE_FAULTS`).
-                self.st.gauge_lost = true;
                 self.st.braking |= self.cfg.brake.takes_gauge_loss;
             } else {
                 self.st.mode = Mode::Fault;
@@ -267,7 +266,13 @@ impl<const K: usize> Controller<K> {
             } else {
                 // Without a gauge, the laws that read it run on a beam read as straight
                 // (a product, not a branch: one path through the law).
-                let gauge = if st.gauge_lost { 0.0 } else { 1.0 };
+                // A gauge fault latched: the law runs only if it was latched under torque
+                // (elsewhere it latched the Fault mode).
+                let gauge = if st.faults.0 & GAUGE_FAULTS.0 != 0 {
+                    0.0
+                } else {
+                    1.0
+                };
                 let x = Estimate {
                     strain: x.strain * gauge,
                     strain_rate: x.strain_rate * gauge,
