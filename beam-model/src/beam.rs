@@ -34,8 +34,14 @@ pub struct BeamParams {
     pub jm_kgm2: f64,
     /// Viscous hub friction b, N m s/rad.
     pub viscous_nms: f64,
-    /// Coulomb hub friction, N m.
+    /// Coulomb hub friction, N m: the mean of the two directions.
     pub coulomb_nm: f64,
+    /// How Coulomb friction differs by direction, N m: half the difference. Turning
+    /// positive the hub meets `coulomb_nm + coulomb_asym_nm`, turning negative
+    /// `coulomb_nm - coulomb_asym_nm` (a gearbox or seal that drags more one way). At most
+    /// `coulomb_nm` either way; 0 in the presets and in files that do not give it.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub coulomb_asym_nm: f64,
     /// Tip (payload) mass Mt, kg.
     pub tip_mass_kg: f64,
     /// Modal damping ratio zeta, the same for every mode.
@@ -69,6 +75,7 @@ impl BeamParams {
             jm_kgm2: 6.92e-3,
             viscous_nms: 1.37e-4,
             coulomb_nm: 0.0,
+            coulomb_asym_nm: 0.0,
             tip_mass_kg: 0.0,
             damping_ratio: 0.01,
             root_gauge_m: 0.0,
@@ -154,6 +161,16 @@ impl Beam {
         };
         if p.damping_ratio >= 1.0 {
             return out_of_range("damping_ratio");
+        }
+        // Friction opposes motion in both directions.
+        if !p.coulomb_asym_nm.is_finite() {
+            return Err(ParamError {
+                field: "coulomb_asym_nm",
+                kind: ParamErrorKind::NonFinite,
+            });
+        }
+        if p.coulomb_asym_nm.abs() > p.coulomb_nm {
+            return out_of_range("coulomb_asym_nm");
         }
         // The strain gauges must sit on the beam.
         if p.root_gauge_m > p.length_m {

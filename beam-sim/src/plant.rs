@@ -151,6 +151,7 @@ pub struct Plant<const N: usize> {
     minv_h: [f64; N],
     viscous: f64,
     coulomb: f64,
+    coulomb_asym: f64,
     torque_limit: f64,
 }
 
@@ -162,6 +163,7 @@ impl<const N: usize> Plant<N> {
             minv_h: mat_vec(&model.mqq_inv, &model.h),
             viscous: p.viscous_nms,
             coulomb: p.coulomb_nm,
+            coulomb_asym: p.coulomb_asym_nm,
             torque_limit: p.torque_limit_nm,
             model,
         }
@@ -171,6 +173,7 @@ impl<const N: usize> Plant<N> {
     pub fn lossless(mut self) -> Self {
         self.viscous = 0.0;
         self.coulomb = 0.0;
+        self.coulomb_asym = 0.0;
         self.model.cq = [[0.0; N]; N];
         self
     }
@@ -191,7 +194,9 @@ impl<const N: usize> Plant<N> {
         let sq = mat_vec(&m.s, &x.q);
         let q_s_q = dot(&x.q, &sq);
         let q_s_qd = dot(&sq, &x.qd);
-        let friction = self.viscous * w + self.coulomb * (w / COULOMB_SMOOTHING_RAD_S).tanh();
+        // Coulomb friction by direction: `Fc + Fa` turning positive, `Fc - Fa` negative.
+        let sign = (w / COULOMB_SMOOTHING_RAD_S).tanh();
+        let friction = self.viscous * w + self.coulomb * sign + self.coulomb_asym * sign.abs();
         let f_theta = tau - 2.0 * w * q_s_qd - friction;
         let cqd = mat_vec(&m.cq, &x.qd);
         let kq = mat_vec(&m.kqq, &x.q);
@@ -237,7 +242,9 @@ impl<const N: usize> Plant<N> {
             .pinned_hz
             .iter()
             .fold(0.0f64, |a, &f| a.max(2.0 * core::f64::consts::PI * f));
-        let lambda_friction = (self.coulomb / COULOMB_SMOOTHING_RAD_S + self.viscous) / m.jeff;
+        let lambda_friction = ((self.coulomb + self.coulomb_asym.abs()) / COULOMB_SMOOTHING_RAD_S
+            + self.viscous)
+            / m.jeff;
         let lambda = omega_max.max(lambda_friction);
         if lambda > 0.0 {
             1.0 / lambda

@@ -361,3 +361,48 @@ fn scaling_every_mass_stiffness_friction_and_the_torque_together_changes_no_moti
     }
     assert!((xa.theta - xc.theta).abs() > 1e-3);
 }
+
+#[test]
+fn friction_that_differs_by_direction_takes_the_links_momentum_at_its_own_rate_each_way() {
+    // A link coasting with no torque and no viscous friction loses angular momentum,
+    // `L = (Mtt + q'Sq) omega + h'q'`, to Coulomb friction alone: dL/dt = -(Fc + Fa) while
+    // the hub turns positive, Fc - Fa while it turns negative (outside the smooth sign's
+    // 1e-3 rad/s band, which the hub does not enter here).
+    let (fc, fa): (f64, f64) = (0.05, 0.02);
+    let p = plant::<3>(BeamParams {
+        coulomb_nm: fc,
+        coulomb_asym_nm: fa,
+        viscous_nms: 0.0,
+        ..BeamParams::aluminium()
+    });
+    let m = p.model;
+    let momentum = |x: &State<3>| {
+        let sq = model_core::linalg::mat_vec(&m.s, &x.q);
+        (m.mtt + model_core::linalg::dot(&x.q, &sq)) * x.omega
+            + model_core::linalg::dot(&m.h, &x.qd)
+    };
+    let h = p.stable_step_s().min(1e-4);
+    let span = 0.3;
+    for (omega0, force) in [(2.0f64, fc + fa), (-2.0, fc - fa)] {
+        let mut x = State::<3>::at_rest(0.0);
+        x.omega = omega0;
+        let l0 = momentum(&x);
+        let steps = (span / h).round() as usize;
+        for _ in 0..steps {
+            x = p.rk4_step(&x, 0.0, h);
+            assert!(x.omega * omega0.signum() > 0.01, "the hub stopped: {x:?}");
+        }
+        let rate = (momentum(&x) - l0) / (steps as f64 * h);
+        assert!(
+            (rate + omega0.signum() * force).abs() < 1e-6 * force,
+            "turning {omega0} rad/s: dL/dt {rate} N m, friction {force} N m"
+        );
+    }
+    // Parameters with more difference than friction are refused, naming the field.
+    let bad = BeamParams {
+        coulomb_nm: 0.01,
+        coulomb_asym_nm: 0.02,
+        ..BeamParams::aluminium()
+    };
+    assert_eq!(Beam::try_build(bad).unwrap_err().field, "coulomb_asym_nm");
+}

@@ -240,8 +240,8 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
     out.push_str(&format!(
         "    params: ::model_core::BeamParams {{ length_m: {:?}, width_m: {:?}, thickness_m: {:?}, \
          hub_radius_m: {:?}, density_kg_m3: {:?}, ei_nm2: {:?}, jm_kgm2: {:?}, viscous_nms: {:?}, \
-         coulomb_nm: {:?}, tip_mass_kg: {:?}, damping_ratio: {:?}, root_gauge_m: {:?}, \
-         mid_gauge_m: {:?}, torque_limit_nm: {:?} }},\n",
+         coulomb_nm: {:?}, coulomb_asym_nm: {:?}, tip_mass_kg: {:?}, damping_ratio: {:?}, \
+         root_gauge_m: {:?}, mid_gauge_m: {:?}, torque_limit_nm: {:?} }},\n",
         p.length_m,
         p.width_m,
         p.thickness_m,
@@ -251,6 +251,7 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
         p.jm_kgm2,
         p.viscous_nms,
         p.coulomb_nm,
+        p.coulomb_asym_nm,
         p.tip_mass_kg,
         p.damping_ratio,
         p.root_gauge_m,

@@ -6,6 +6,7 @@ pub mod hub;
 pub mod lsq;
 pub mod prescribed;
 pub mod replay;
+pub mod ringing;
 pub mod split;
 pub mod units;
 pub mod warnings;

@@ -5,6 +5,7 @@
 //! `beam calibrate` prints them with its report and as its JSON's `warnings`.
 
 use crate::identify::calibrate::{AtBound, LogFit, StepReport, Tradeoff, Uncertainty};
+use crate::identify::ringing::LogRinging;
 use crate::identify::split::{HeldBeam, RestOffset, SplitReport, WINDOW_FACTORS, WINDOW_WARNING};
 use model_core::BeamParams;
 use std::fmt;
@@ -30,6 +31,9 @@ pub struct Calibration {
     pub each_log: Vec<LogAlone>,
     /// What reading and cutting the logs, and the fit, found.
     pub notes: Vec<Warning>,
+    /// Each log's own ringing against the model's first clamped mode (empty where it was
+    /// not checked).
+    pub ringing: Vec<LogRinging>,
 }
 
 /// One of several logs calibrated by itself.
@@ -84,6 +88,20 @@ pub enum Warning {
         /// The offset fitted, N m.
         fitted_nm: f64,
     },
+    /// The balance left a torque the same way in both directions of motion while the
+    /// torque's zero was read at rest: fitted as Coulomb friction that differs by direction.
+    DirectionalFriction {
+        /// The mean Coulomb friction, N m.
+        coulomb_nm: f64,
+        /// Half the difference, N m (positive: more turning positive).
+        asym_nm: f64,
+        /// Its one-sigma error, N m.
+        std_err_nm: f64,
+        /// The balance's residual without it, N m RMS.
+        rms_without_nm: f64,
+        /// With it.
+        rms_with_nm: f64,
+    },
     /// Two parameters the logs do not tell apart.
     Tradeoff(Tradeoff),
     /// A parameter whose interval is wider than its value.
@@ -123,6 +141,27 @@ pub enum Warning {
     BeamHeld(HeldBeam),
     /// The torque read other than zero at rest before the moves: taken as its offset.
     RestOffset(RestOffset),
+    /// The model's first clamped mode is not where a log rings after its move.
+    RingsElsewhere {
+        /// The log.
+        log: String,
+        /// Its check.
+        check: LogRinging,
+    },
+    /// The sensor lag fitted with the beam moved the beam's frequency away from where the
+    /// logs ring: the model was calibrated again with the logs as logged.
+    LagDropped {
+        /// The lag that was fitted, s.
+        lag_s: f64,
+        /// The model's first clamped mode with it, Hz.
+        with_hz: f64,
+        /// Without it (the result), Hz.
+        without_hz: f64,
+        /// Where the logs ring, Hz (their weighted mean).
+        ring_hz: f64,
+        /// Where the model with the lag rang on the same hubs, Hz.
+        model_ring_hz: f64,
+    },
     /// The found model, driven open loop by the logged torque, drifts from the logged angle.
     ReplayDrifts {
         /// The drift, deg RMS.
@@ -243,6 +282,40 @@ impl fmt::Display for Warning {
                     pairs.join("; ")
                 )
             }
+            Warning::RingsElsewhere { log, check } => {
+                let (l, m) = (check.log.expect("rings"), check.model.expect("rings"));
+                write!(
+                    f,
+                    "{log}: the model rings at {:.3} +- {:.3} Hz after the move on the logged hub, the log at {:.3} +- {:.3} Hz ({:+.1} %): the model explains the log by something else than the beam's frequency; check the sensor's lag (--strain-delay), the tip mass and the beam's drawing",
+                    m.hz,
+                    m.hz_sigma,
+                    l.hz,
+                    l.hz_sigma,
+                    100.0 * check.off().unwrap_or(0.0)
+                )
+            }
+            Warning::LagDropped {
+                lag_s,
+                with_hz,
+                without_hz,
+                ring_hz,
+                model_ring_hz,
+            } => write!(
+                f,
+                "a sensor lag of {lag_s:.3} s fitted with the beam bought its fit with the beam's frequency (first clamped mode {with_hz:.3} Hz; it rang at {model_ring_hz:.3} Hz on the logged hubs, the logs at {ring_hz:.3} Hz): calibrated again with the logs as logged, first clamped mode {without_hz:.3} Hz; give --strain-delay to keep a lag you know"
+            ),
+            Warning::DirectionalFriction {
+                coulomb_nm,
+                asym_nm,
+                std_err_nm,
+                rms_without_nm,
+                rms_with_nm,
+            } => write!(
+                f,
+                "the hub's Coulomb friction differs by direction: {:.3e} N m turning positive, {:.3e} N m turning negative (+- {std_err_nm:.1e}; the torque's zero is read at rest, so a torque the same both ways while the hub turns is friction; the balance's residual {rms_without_nm:.2e} -> {rms_with_nm:.2e} N m RMS); the parameter file's coulomb_asym_nm carries it",
+                coulomb_nm + asym_nm,
+                coulomb_nm - asym_nm
+            ),
             Warning::RestOffset(o) => write!(
                 f,
                 "the torque reads {:.3e} +- {:.1e} N m at rest before the moves, where the hub takes none: taken as the torque's offset and subtracted (the parameter file's torque_offset_nm carries it)",
@@ -303,11 +376,13 @@ impl Warning {
     pub fn rank(&self) -> u8 {
         match self {
             Warning::ReplayDrifts { .. }
+            | Warning::RingsElsewhere { .. }
             | Warning::LogsDisagree { .. }
             | Warning::LogAloneFailed { .. }
             | Warning::StepsDisagree { .. }
             | Warning::AtBound { .. } => 0,
             Warning::ShortRest { .. }
+            | Warning::LagDropped { .. }
             | Warning::BeamHeld(_)
             | Warning::TorqueUnplaced { .. }
             | Warning::SmoothingLimits { .. }
@@ -316,6 +391,7 @@ impl Warning {
             Warning::Note(_)
             | Warning::UnmeasuredMid { .. }
             | Warning::LagFitted { .. }
+            | Warning::DirectionalFriction { .. }
             | Warning::RestOffset(_) => 2,
             Warning::Tradeoff(_) | Warning::Unpinned(_) => 3,
         }
@@ -455,6 +531,14 @@ pub fn warnings(found: &Calibration, names: &[String]) -> Vec<Warning> {
     if let Some(h) = found.split.as_ref().and_then(|s| s.beam_held) {
         out.push(Warning::BeamHeld(h));
     }
+    for (check, name) in found.ringing.iter().zip(names) {
+        if check.agrees() == Some(false) {
+            out.push(Warning::RingsElsewhere {
+                log: name.clone(),
+                check: *check,
+            });
+        }
+    }
     if let Some(s) = found.split.as_ref().filter(|s| s.replay_drifts()) {
         out.push(Warning::ReplayDrifts {
             rms_deg: s.replay_rms_theta_err_rad.to_degrees(),
@@ -566,6 +650,7 @@ mod tests {
 
     fn calibration(spread: Option<Spread>) -> Calibration {
         Calibration {
+            ringing: vec![],
             params: BeamParams::aluminium(),
             steps: vec![],
             per_log: vec![],

@@ -82,6 +82,8 @@ struct File {
     jm_kgm2: f64,
     viscous_nms: f64,
     coulomb_nm: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    coulomb_asym_nm: f64,
     tip_mass_kg: f64,
     damping_ratio: f64,
     root_gauge_m: f64,
@@ -89,6 +91,11 @@ struct File {
     torque_limit_nm: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sensors: Option<Sensors>,
+}
+
+/// Whether a key is left out of a written file: a friction that is the same both ways.
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// `params` as TOML, with a comment line on top.
@@ -109,6 +116,7 @@ pub fn render_with(params: &BeamParams, sensors: Option<&Sensors>, comment: &str
         jm_kgm2: p.jm_kgm2,
         viscous_nms: p.viscous_nms,
         coulomb_nm: p.coulomb_nm,
+        coulomb_asym_nm: p.coulomb_asym_nm,
         tip_mass_kg: p.tip_mass_kg,
         damping_ratio: p.damping_ratio,
         root_gauge_m: p.root_gauge_m,
@@ -169,6 +177,7 @@ pub fn load_with_sensors(path: &Path) -> Result<(BeamParams, Sensors), ParamsFil
         jm_kgm2: f.jm_kgm2,
         viscous_nms: f.viscous_nms,
         coulomb_nm: f.coulomb_nm,
+        coulomb_asym_nm: f.coulomb_asym_nm,
         tip_mass_kg: f.tip_mass_kg,
         damping_ratio: f.damping_ratio,
         root_gauge_m: f.root_gauge_m,

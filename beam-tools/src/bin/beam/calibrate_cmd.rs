@@ -7,6 +7,9 @@ use beam_tools::identify::calibrate::{
     Experiment, Log, LogFit, StepReport, Windows, DEFAULT_EVALS, REST_BEFORE_S,
 };
 use beam_tools::identify::replay::{sensor_lag, STRAIN_DELAY_FLOOR_S};
+use beam_tools::identify::ringing::{
+    check as ring_check, ring_mean, worst_sigmas, LogRinging, NoRinging, Ringing,
+};
 use beam_tools::identify::split::{calibrate_split, Reference, SplitOptions, SplitReport};
 use beam_tools::identify::units::unit_mistake;
 use beam_tools::identify::warnings::{
@@ -18,7 +21,7 @@ use model_core::{Beam, BeamParams, ModalModel};
 use serde_json::json;
 use std::path::PathBuf;
 
-#[derive(Args)]
+#[derive(Args, Clone)]
 pub struct CalibrateArgs {
     /// The logs: CSV with t_s, torque_nm, theta_rad, root_strain [, mid_strain] (or the
     /// columns of --columns, which may give a tip deflection in place of the root strain),
@@ -58,6 +61,11 @@ pub struct CalibrateArgs {
     /// cannot tell the two apart (docs/calibrate-your-rig.md).
     #[arg(long, value_name = "KG_M3")]
     known_density: Option<f64>,
+    /// With `--method split`: the beam's material, for its density from a handbook, as
+    /// --known-density gives it: steel 7850, stainless (steel) 8000, aluminium (aluminum)
+    /// 2700, brass 8500, copper 8960, titanium 4500 kg/m^3.
+    #[arg(long, value_parser = MATERIALS.map(|(name, _)| name), conflicts_with = "known_density")]
+    material: Option<String>,
     /// The gauge's (or tip sensor's) delay behind the hub, s: the log's strains are taken
     /// this much later (0: as logged) [default: found in each log by correlating its root
     /// strain or tip deflection with the starting parameters' on the logged hub, within
@@ -107,6 +115,30 @@ pub struct CalibrateArgs {
     json: bool,
 }
 
+/// The materials `--material` names, with their handbook densities, kg/m^3.
+const MATERIALS: [(&str, f64); 7] = [
+    ("steel", 7850.0),
+    ("stainless", 8000.0),
+    ("aluminium", 2700.0),
+    ("aluminum", 2700.0),
+    ("brass", 8500.0),
+    ("copper", 8960.0),
+    ("titanium", 4500.0),
+];
+
+impl CalibrateArgs {
+    /// The density given: `--known-density`, or `--material`'s.
+    fn density(&self) -> Option<f64> {
+        self.known_density.or_else(|| {
+            let name = self.material.as_deref()?;
+            MATERIALS
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, rho)| *rho)
+        })
+    }
+}
+
 pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
     check(a)?;
     let guess = *crate::beam(&a.plant)?.params();
@@ -139,6 +171,34 @@ pub fn run(a: &CalibrateArgs) -> anyhow::Result<()> {
             found = identify_joint(a, &read.exps, &guess, false)?;
         }
     }
+    // The logs' own ringing holds the beam's frequency: a fitted lag that moved it away is
+    // dropped, and the model calibrated again on the logs as logged.
+    let mut rings = with_modes!(a.plant.modes, ring_check(&found.params, &read.exps));
+    let lag = read.delays.iter().map(|(d, _)| d).sum::<f64>() / read.delays.len().max(1) as f64
+        + beam_lag.unwrap_or(0.0);
+    if a.strain_delay.is_none() && lag >= STRAIN_DELAY_FLOOR_S && worst_sigmas(&rings) > 0.0 {
+        let as_logged = CalibrateArgs {
+            strain_delay: Some(0.0),
+            ..a.clone()
+        };
+        let again = experiments(&as_logged, &guess, None)
+            .and_then(|r| Ok((identify_joint(&as_logged, &r.exps, &guess, false)?, r)));
+        if let Ok((mut plain, plain_read)) = again {
+            let plain_rings =
+                with_modes!(a.plant.modes, ring_check(&plain.params, &plain_read.exps));
+            if worst_sigmas(&plain_rings) < worst_sigmas(&rings) {
+                plain.notes.push(Warning::LagDropped {
+                    lag_s: lag,
+                    with_hz: rings[0].model_clamped_hz,
+                    without_hz: plain_rings[0].model_clamped_hz,
+                    ring_hz: ring_mean(&plain_rings).unwrap_or(f64::NAN),
+                    model_ring_hz: rings[0].model.map_or(f64::NAN, |r| r.hz),
+                });
+                (found, read, rings) = (plain, plain_read, plain_rings);
+            }
+        }
+    }
+    found.ringing = rings;
     found.each_log = each_log_alone(a, &read.exps, &guess);
     // The sensor's delay, as taken out of the logs, goes with the rig's other instruments
     // into the parameter file, for `beam replay` to take out of another log.
@@ -168,13 +228,13 @@ fn check(a: &CalibrateArgs) -> anyhow::Result<()> {
     if a.windows.as_ref().is_some_and(|w| w.len() != 3) {
         bail!("--windows takes three times: START,END,SETTLE_END");
     }
-    if (a.known_density.is_some()
+    if (a.density().is_some()
         || a.fit_gauge_position
         || a.torque_offset
         || a.encoder_counts.is_some())
         && a.method != "split"
     {
-        bail!("--known-density, --fit-gauge-position, --torque-offset and --encoder-counts apply to --method split");
+        bail!("--known-density, --material, --fit-gauge-position, --torque-offset and --encoder-counts apply to --method split");
     }
     if let Some(path) = &a.plot {
         beam_tools::io::plot::check_extension(path)?;
@@ -370,11 +430,12 @@ fn identify_joint(
             spread,
             each_log: vec![],
             notes: vec![],
+            ringing: vec![],
         });
     }
     let mass = |e: &Experiment| e.tip_mass_kg.unwrap_or(guess.tip_mass_kg);
     let masses_differ = exps.iter().any(|e| mass(e) != mass(&exps[0]));
-    let reference = match a.known_density {
+    let reference = match a.density() {
         Some(rho) => Reference::Density(rho),
         None if masses_differ => Reference::TipMass,
         None => Reference::Torque,
@@ -413,6 +474,13 @@ fn identify_joint(
             fitted_nm: sensors.torque_offset_nm,
         })
         .into_iter()
+        .chain(split.coulomb_asym.map(|d| Warning::DirectionalFriction {
+            coulomb_nm: params.coulomb_nm,
+            asym_nm: d.asym_nm,
+            std_err_nm: d.std_err_nm,
+            rms_without_nm: d.rms_err_without_nm,
+            rms_with_nm: d.rms_err_with_nm,
+        }))
         .collect();
     let per_log = with_modes!(a.plant.modes, log_fits(&params, &sensors, exps))?;
     Ok(Calibration {
@@ -423,6 +491,7 @@ fn identify_joint(
         split: Some(split),
         each_log: vec![],
         notes,
+        ringing: vec![],
     })
 }
 
@@ -505,6 +574,7 @@ fn print_json(
                "uncertainty": spread.map(|s| &s.0),
                "tradeoffs": spread.map(|s| &s.1),
                "each_log": each_log_json(&found.each_log, names),
+               "ringing": found.ringing,
                "warnings": warnings})
     );
 }
@@ -548,6 +618,9 @@ fn print_text(
             e.log.sensor.unit()
         );
     }
+    for (r, name) in found.ringing.iter().zip(names) {
+        println!("  {name}: {}", ringing_line(r));
+    }
     for s in &found.steps {
         print_step(s);
     }
@@ -577,6 +650,35 @@ fn print_text(
             .map(|i| numbered(path, i).display().to_string())
             .collect();
         println!("  figures: {}", all.join(", "));
+    }
+}
+
+/// A log's ringing after its move against the model's on the same hub, in words.
+fn ringing_line(r: &LogRinging) -> String {
+    let ring = |x: &Ringing| {
+        format!(
+            "{:.3} +- {:.3} Hz (damping {:.4} +- {:.4})",
+            x.hz, x.hz_sigma, x.damping_ratio, x.damping_sigma
+        )
+    };
+    match (r.log, r.model) {
+        (Some(l), Some(m)) => format!(
+            "rings after the move ({:.2}..{:.2} s) at {} by itself; the model on its hub at {} ({:+.2} %; first clamped mode {:.3} Hz)",
+            l.from_s,
+            l.to_s,
+            ring(&l),
+            ring(&m),
+            100.0 * r.off().unwrap_or(0.0),
+            r.model_clamped_hz
+        ),
+        _ if r.why_none == Some(NoRinging::TooShort) => format!(
+            "no ringing measured after the move (under two cycles of it left in the log); the model's first clamped mode {:.3} Hz",
+            r.model_clamped_hz
+        ),
+        _ => format!(
+            "no ringing after the move; the model's first clamped mode {:.3} Hz",
+            r.model_clamped_hz
+        ),
     }
 }
 
@@ -694,7 +796,7 @@ fn summary<const N: usize>(
         let m = ModalModel::<N>::try_build(&Beam::try_build(*p)?)?;
         Ok(
             json!({"jm_kgm2": p.jm_kgm2, "density_kg_m3": p.density_kg_m3, "ei_nm2": p.ei_nm2, "viscous_nms": p.viscous_nms,
-                  "coulomb_nm": p.coulomb_nm, "damping_ratio": p.damping_ratio, "root_gauge_m": p.root_gauge_m,
+                  "coulomb_nm": p.coulomb_nm, "coulomb_asym_nm": p.coulomb_asym_nm, "damping_ratio": p.damping_ratio, "root_gauge_m": p.root_gauge_m,
                   "mtt": m.mtt, "jeff": m.jeff, "clamped_hz": m.clamped_hz.to_vec(), "pinned_hz": m.pinned_hz.to_vec()}),
         )
     };

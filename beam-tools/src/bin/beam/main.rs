@@ -150,7 +150,7 @@ where
     .try_map(|s| s.parse::<T>())
 }
 
-#[derive(Args)]
+#[derive(Args, Clone)]
 struct PlantArgs {
     /// Parameter preset.
     #[arg(long, value_parser = named::<Preset>(), default_value = "aluminium")]

@@ -171,6 +171,9 @@ pub struct SplitReport {
     /// The torque read at rest before the moves, taken out as its offset (and in
     /// `sensors`). `None`: no rest, or none to take out.
     pub rest_offset: Option<RestOffset>,
+    /// Coulomb friction found to differ by direction (in the parameters found as
+    /// `coulomb_asym_nm`). `None`: the same both ways, or not told.
+    pub coulomb_asym: Option<DirectionalFriction>,
 }
 
 /// Step 1's global search stops each local search when its step is below this (relative,
@@ -332,7 +335,8 @@ pub fn calibrate_split<const N: usize>(
     }
     // A torque that reads other than zero at rest before every move is the torque's
     // offset: taken out here, put back into the sensors found.
-    let rest = rest_offset(exps);
+    let level = rest_level(exps);
+    let rest = level.filter(significant);
     let shifted: Vec<Experiment>;
     let exps = match rest {
         Some(o) => {
@@ -388,20 +392,65 @@ pub fn calibrate_split<const N: usize>(
         observers: &observers,
     };
     let first = rigid_body::<N>(&inputs, &views, &beam, options)?;
-    // A torque the balance could not place in either direction ([`unplaced_offset`]): the
-    // rigid body again with an offset (step 1, the beam, does not depend on it), and said.
-    let (found, mut sensors, mut report) = match first.2.unplaced_offset {
-        Some(u) => {
-            let with_offset = SplitOptions {
-                fit_offset: true,
-                ..*options
-            };
+    let with_offset = SplitOptions {
+        fit_offset: true,
+        ..*options
+    };
+    // With the torque's zero read at rest, a torque left the same way in both directions
+    // of motion is not an offset: it is Coulomb friction that differs by direction (it acts
+    // only while the hub turns). The balance is fitted with it wherever the logs move both
+    // ways, and it is kept when it is within what friction can be (no more than the mean
+    // Coulomb friction either way) and told: [`UNPLACED_SIGMAS`] of its error from zero, or
+    // the open-loop hub of the logs' torque drifts [`UNPLACED_RMS_RATIO`] as far or less
+    // with it. (On the second rig's stand-in, 8 mN m of a 20 mN m friction had an error of
+    // 11 mN m from the balance's bootstrap, but took the open-loop drift from 4.8 deg to
+    // 0.24 deg.)
+    let directional = match (level, options.fit_offset) {
+        (Some(_), false) => rigid_body::<N>(&inputs, &views, &beam, &with_offset)
+            .ok()
+            .and_then(|(mut found, mut sensors, mut report)| {
+                let asym = sensors.torque_offset_nm / sensors.torque_scale;
+                let u = report
+                    .uncertainty
+                    .iter_mut()
+                    .find(|u| u.name == "torque_offset_nm")?;
+                let std_err = u.std_err / sensors.torque_scale;
+                // Told by its error, or by the hub it predicts: the logged torque, replayed
+                // open loop, drifts from the logged angle half as far or less with it.
+                let told = asym.abs() > UNPLACED_SIGMAS * std_err
+                    || report.replay_rms_theta_err_rad
+                        <= UNPLACED_RMS_RATIO * first.2.replay_rms_theta_err_rad;
+                if !told || asym.abs() > found.coulomb_nm {
+                    return None;
+                }
+                (u.name, u.value, u.std_err) = ("coulomb_asym_nm", asym, std_err);
+                found.coulomb_asym_nm = asym;
+                sensors.torque_offset_nm = 0.0;
+                report.sensors = sensors;
+                report.offset_fitted = false;
+                report.unplaced_offset = None;
+                report.coulomb_asym = Some(DirectionalFriction {
+                    asym_nm: asym,
+                    std_err_nm: std_err,
+                    rms_err_without_nm: first.2.balance_rms_err_nm,
+                    rms_err_with_nm: report.balance_rms_err_nm,
+                });
+                Some((found, sensors, report))
+            }),
+        _ => None,
+    };
+    // Else a torque the balance could not place in either direction ([`unplaced_offset`]):
+    // the rigid body again with an offset (step 1, the beam, does not depend on it), and
+    // said.
+    let (found, mut sensors, mut report) = match (directional, first.2.unplaced_offset) {
+        (Some(d), _) => d,
+        (None, Some(u)) => {
             let (found, sensors, mut report) =
                 rigid_body::<N>(&inputs, &views, &beam, &with_offset)?;
             report.unplaced_offset = Some(u);
             (found, sensors, report)
         }
-        None => first,
+        (None, None) => first,
     };
     if let Some(o) = rest {
         sensors.torque_offset_nm += o.offset_nm;
@@ -431,6 +480,17 @@ pub const REST_OFFSET_SIGMAS: f64 = 4.0;
 /// voltage and speed carries one). `None` otherwise: a log that starts moving, or rests
 /// that disagree (a controller holding the hub against something).
 pub fn rest_offset(exps: &[Experiment]) -> Option<RestOffset> {
+    rest_level(exps).filter(significant)
+}
+
+/// The level is [`REST_OFFSET_SIGMAS`] of its error from zero.
+fn significant(o: &RestOffset) -> bool {
+    o.offset_nm.abs() > REST_OFFSET_SIGMAS * o.std_err_nm
+}
+
+/// The torque every log reads at rest before its move, as [`rest_offset`] finds it, whether
+/// or not it is far from zero: `Some` where the torque's zero is known.
+fn rest_level(exps: &[Experiment]) -> Option<RestOffset> {
     let mut levels = vec![];
     for e in exps {
         let t0 = e.log.t[0];
@@ -468,7 +528,7 @@ pub fn rest_offset(exps: &[Experiment]) -> Option<RestOffset> {
     let weight: f64 = levels.iter().map(|(_, e)| 1.0 / (e * e)).sum();
     let offset_nm = levels.iter().map(|(l, e)| l / (e * e)).sum::<f64>() / weight;
     let std_err_nm = weight.sqrt().recip();
-    (offset_nm.abs() > REST_OFFSET_SIGMAS * std_err_nm).then_some(RestOffset {
+    Some(RestOffset {
         offset_nm,
         std_err_nm,
     })
@@ -590,6 +650,7 @@ fn rigid_body<const N: usize>(
             unplaced_offset,
             beam_held,
             rest_offset: None,
+            coulomb_asym: None,
         },
     ))
 }
@@ -685,6 +746,20 @@ fn unplaced_offset(
             rms_err_with_nm: rms_with,
             rms_err_without_nm: rms_without,
         })
+}
+
+/// Coulomb friction that differs by direction, found by the balance with the torque's zero
+/// read at rest.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct DirectionalFriction {
+    /// Half the difference, N m (positive: more friction turning positive).
+    pub asym_nm: f64,
+    /// Its one-sigma error (block bootstrap), N m.
+    pub std_err_nm: f64,
+    /// The balance's residual RMS with the friction the same both ways, N m.
+    pub rms_err_without_nm: f64,
+    /// With it differing.
+    pub rms_err_with_nm: f64,
 }
 
 /// A torque the balance could not place in either direction of motion, found by refitting
