@@ -406,15 +406,21 @@ pub struct Experiment {
     /// The tip mass it was logged with, kg, when not the parameters' (a weighed mass added
     /// for this log: see [`crate::identify::split::Reference::TipMass`]).
     pub tip_mass_kg: Option<f64>,
+    /// Whether the rest before the move is where the log begins, the hub not yet moved in
+    /// it (its first move; a later move of a log cut into several rests where the last one
+    /// stopped, held there by friction with a torque that need not be the torque's zero).
+    pub rest_is_start: bool,
 }
 
 impl Experiment {
-    /// A log and its windows, logged with the parameters' tip mass.
+    /// A log and its windows, logged with the parameters' tip mass, its move the log's
+    /// first.
     pub fn new(log: Log, windows: Windows) -> Self {
         Self {
             log,
             windows,
             tip_mass_kg: None,
+            rest_is_start: true,
         }
     }
 

@@ -368,6 +368,7 @@ fn experiments(
             }
             exps.push(Experiment {
                 tip_mass_kg,
+                rest_is_start: i == 0,
                 ..Experiment::new(cut, windows)
             });
             names.push(name);

@@ -472,13 +472,16 @@ pub struct RestOffset {
 /// How many of its errors the torque at rest must be from zero to be taken as an offset.
 pub const REST_OFFSET_SIGMAS: f64 = 4.0;
 
-/// The torque every log reads at rest before its move, when each has at least
+/// The torque every log reads at rest before its first move, when each has at least
 /// [`REST_BEFORE_S`] of it (to 20 ms before the move's start), they agree within three
 /// combined errors, and it is [`REST_OFFSET_SIGMAS`] of its error from zero: the hub held
 /// still on its first angle by a controller with nothing to correct takes no torque, so
 /// what the torque reads there is its zero's offset (a torque derived from a motor's
-/// voltage and speed carries one). `None` otherwise: a log that starts moving, or rests
-/// that disagree (a controller holding the hub against something).
+/// voltage and speed carries one). The rests between the moves of a log cut into several
+/// are not used: the hub stops where friction holds it, off its target, and the drive
+/// holds it there with a torque anywhere within the friction. `None` otherwise: a log that
+/// starts moving, or rests that disagree (a controller holding the hub against
+/// something).
 pub fn rest_offset(exps: &[Experiment]) -> Option<RestOffset> {
     rest_level(exps).filter(significant)
 }
@@ -492,7 +495,7 @@ fn significant(o: &RestOffset) -> bool {
 /// or not it is far from zero: `Some` where the torque's zero is known.
 fn rest_level(exps: &[Experiment]) -> Option<RestOffset> {
     let mut levels = vec![];
-    for e in exps {
+    for e in exps.iter().filter(|e| e.rest_is_start) {
         let t0 = e.log.t[0];
         let until = e.windows.start_s - 0.02;
         if e.windows.start_s < REST_BEFORE_S {
