@@ -43,11 +43,15 @@ pub enum NoRinging {
     Flat,
 }
 
-/// The window `[from, to]` s (from the log's first sample) a log's ringing is fitted over:
-/// from where the hub has come within a tenth of the move of its final angle (the hub's
-/// slow tail under a soft hold would leave little of the ringing after the move's end) to
-/// the end of the settling window.
-pub fn ring_window(log: &Log, windows: &Windows) -> (f64, f64) {
+/// The windows `[from, to]` s (from the log's first sample) a log's ringing is fitted
+/// over, in the order they are tried, both to the end of the log (or of its cut: the next
+/// move's rest). First from where the hub stays within two of the encoder's steps (or
+/// 0.1 % of the move) of its final angle: a hub that friction stopped leaves the beam
+/// ringing clamped, lightly damped, while before it the hub swung with the beam and the two
+/// rang together, more damped, so that one sinusoid fits neither. Then, where that leaves
+/// too little to ring in (a soft hold swings the hub to the end), from where the hub has
+/// come within a tenth of the move of its final angle.
+pub fn ring_windows(log: &Log, windows: &Windows) -> [(f64, f64); 2] {
     let t0 = log.t[0];
     let n = log.t.len();
     let tail = (n / 20).max(1);
@@ -56,10 +60,24 @@ pub fn ring_window(log: &Log, windows: &Windows) -> (f64, f64) {
         .position(|k| log.t[k] - t0 >= windows.start_s)
         .unwrap_or(0);
     let travel = (last - log.theta[start]).abs();
-    let from = (start..n)
+    let end = log.t[n - 1] - t0;
+    let near = (start..n)
         .find(|&k| (log.theta[k] - last).abs() <= 0.1 * travel)
         .map_or(windows.end_s, |k| log.t[k] - t0);
-    (from, windows.settle_end_s)
+    let band = super::hub::encoder_step(&log.theta)
+        .map_or(0.0, |q| 2.0 * q)
+        .max(1e-3 * travel);
+    let still = (start..n)
+        .rev()
+        .find(|&k| (log.theta[k] - last).abs() > band)
+        .map_or(near, |k| (log.t[k] - t0).max(near));
+    [(still, end), (near, end)]
+}
+
+/// The log's ringing over the first of [`ring_windows`] it rings in, with that window.
+fn ring_of(t: &[f64], signal: &[f64], windows: &[(f64, f64); 2]) -> Result<Ringing, NoRinging> {
+    ringing(t, signal, windows[0].0, windows[0].1)
+        .or_else(|_| ringing(t, signal, windows[1].0, windows[1].1))
 }
 
 /// The damped sinusoid plus line that explains `signal` best over `[from, to]` s (times `t`,
@@ -181,12 +199,14 @@ pub fn check<const N: usize>(params: &BeamParams, exps: &[Experiment]) -> Vec<Lo
     exps.iter()
         .map(|e| {
             let p = e.params(params);
-            let (from, to) = ring_window(&e.log, &e.windows);
             let t: Vec<f64> = e.log.t.iter().map(|x| x - e.log.t[0]).collect();
-            let log = ringing(&t, &e.log.beam_signal, from, to);
-            let model = super::prescribed::replay_prescribed::<N>(&p, &e.log)
-                .ok_or(NoRinging::Flat)
-                .and_then(|m| ringing(&t, &m, from, to));
+            let log = ring_of(&t, &e.log.beam_signal, &ring_windows(&e.log, &e.windows));
+            // The model over the window the log rang in.
+            let model = log.and_then(|l| {
+                super::prescribed::replay_prescribed::<N>(&p, &e.log)
+                    .ok_or(NoRinging::Flat)
+                    .and_then(|m| ringing(&t, &m, l.from_s, l.to_s))
+            });
             let clamped = Beam::try_build(p)
                 .ok()
                 .and_then(|b| ModalModel::<N>::try_build(&b).ok())

@@ -524,7 +524,21 @@ pub fn warnings(found: &Calibration, names: &[String]) -> Vec<Warning> {
     if let Some((errs, _)) = &found.spread {
         out.extend(steps_disagree(&found.steps, errs));
     }
-    out.extend(logs_disagree(&found.each_log, names));
+    // Logs that move different ways each fit their own direction's friction: with the
+    // difference by direction found together, they are not said to disagree on it.
+    out.extend(
+        logs_disagree(&found.each_log, names)
+            .into_iter()
+            .filter(|w| {
+                !matches!(
+                    w,
+                    Warning::LogsDisagree {
+                        param: "coulomb_nm",
+                        ..
+                    }
+                ) || found.params.coulomb_asym_nm == 0.0
+            }),
+    );
     if let Some(o) = found.split.as_ref().and_then(|s| s.rest_offset) {
         out.push(Warning::RestOffset(o));
     }
@@ -611,6 +625,10 @@ pub fn logs_disagree(each: &[LogAlone], names: &[String]) -> Vec<Warning> {
     let Some((first, _)) = fits.first() else {
         return out;
     };
+    // Each pair is one more chance of a chance disagreement: the bar is raised so that the
+    // logs' pairs together raise a false one as rarely as one pair at DISAGREE_SIGMAS does
+    // (Bonferroni: 2.0 sigma for 2 logs, 2.96 for 6, i.e. 15 pairs).
+    let bar = disagree_bar(fits.len() * (fits.len() - 1) / 2);
     for param in first.iter().map(|u| u.name) {
         let of = |u: &Vec<Uncertainty>| u.iter().find(|u| u.name == param).cloned();
         let mut pairs = vec![];
@@ -620,7 +638,7 @@ pub fn logs_disagree(each: &[LogAlone], names: &[String]) -> Vec<Warning> {
                     continue;
                 };
                 let sigmas = (a.value - b.value).abs() / a.std_err.hypot(b.std_err);
-                if sigmas > DISAGREE_SIGMAS {
+                if sigmas > bar {
                     pairs.push(LogPair {
                         a: ((*ni).clone(), a.value, a.std_err),
                         b: ((*nj).clone(), b.value, b.std_err),
@@ -636,9 +654,52 @@ pub fn logs_disagree(each: &[LogAlone], names: &[String]) -> Vec<Warning> {
     out
 }
 
+/// How many combined sigmas apart two of `pairs` results must be to be said to disagree:
+/// [`DISAGREE_SIGMAS`] for one pair, raised for more so that all of them together are as
+/// likely to raise a false alarm as one pair is (Gaussian intervals).
+pub fn disagree_bar(pairs: usize) -> f64 {
+    // Two-sided tail of the standard normal beyond z (Abramowitz and Stegun 7.1.26 for
+    // erfc, within 1.5e-7).
+    let tail = |z: f64| {
+        let x = z / core::f64::consts::SQRT_2;
+        let t = 1.0 / (1.0 + 0.3275911 * x);
+        let poly = t
+            * (0.254829592
+                + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+        poly * (-x * x).exp()
+    };
+    let want = tail(DISAGREE_SIGMAS) / pairs.max(1) as f64;
+    let (mut lo, mut hi) = (DISAGREE_SIGMAS, 10.0);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if tail(mid) > want {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    if pairs <= 1 {
+        DISAGREE_SIGMAS
+    } else {
+        0.5 * (lo + hi)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_bar_for_disagreeing_logs_rises_with_their_pairs() {
+        assert_eq!(disagree_bar(1), DISAGREE_SIGMAS);
+        // 15 pairs: a two-sided 0.0455 / 15 = 0.00303 tail is 2.965 sigma.
+        assert!(
+            (disagree_bar(15) - 2.965).abs() < 0.01,
+            "{}",
+            disagree_bar(15)
+        );
+        assert!(disagree_bar(3) > DISAGREE_SIGMAS && disagree_bar(3) < disagree_bar(15));
+    }
 
     fn u(name: &'static str, value: f64, std_err: f64) -> Uncertainty {
         Uncertainty {
