@@ -247,3 +247,47 @@ fn every_smc_i_row_switches_hard_enough_to_hold_the_stated_load() {
     }
     assert!(rows > 0, "the table has smc-i rows");
 }
+
+#[test]
+fn optimize_writes_no_row_that_never_settles_and_says_when_pd_settles_sooner() {
+    let dir = common::scratch("optimize-settle");
+    // The lab link (docs/lab-link/truth.toml): a light hub and a lightly damped blade with a
+    // tip mass. No smc row found on it settles the paper's slew within the run (the hub
+    // within 0.05 deg and the root strain within 5 ue for good): it is shown, not written.
+    let table = dir.join("lab.toml");
+    let out = common::beam(&[
+        "optimize",
+        "--params",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/lab-link/truth.toml"),
+        "--controller",
+        "smc",
+        "--table",
+        table.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("not written") && err.contains("never settle"),
+        "{err}"
+    );
+    assert!(!table.exists(), "a table was written");
+    // docs/truth.toml: the row settles, later than PD 20/1, and the report says so.
+    let table = dir.join("truth.toml");
+    let out = common::beam(&[
+        "optimize",
+        "--params",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/truth.toml"),
+        "--controller",
+        "smc",
+        "--table",
+        table.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(table.exists());
+    assert!(text.contains("settle later than PD 20/1"), "{text}");
+}

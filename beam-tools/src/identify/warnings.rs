@@ -325,11 +325,19 @@ impl fmt::Display for Warning {
                 let free = h.free.map_or(String::new(), |(jm, rho, s)| {
                     format!(" (the free torque balance gave Jm {jm:.3e} kg m^2, density {rho:.4e} kg/m^3, torque scale {s:.3})")
                 });
-                write!(
-                    f,
-                    "the logs do not tell the hub's inertia from the beam's{free}: the beam is held at the starting density ({:.4e} kg/m^3) with the torque read true, and Jm and friction are fitted with them; give the density you know (--known-density) or log the move again with a weighed tip mass (--tip-masses) to measure them",
-                    h.density_kg_m3
-                )
+                if h.density_given {
+                    write!(
+                        f,
+                        "the logs do not give the torque's scale with the density given{free}: the torque is read true, and Jm and friction are fitted with the given density ({:.4e} kg/m^3); log the move again with a weighed tip mass (--tip-masses) to measure the scale",
+                        h.density_kg_m3
+                    )
+                } else {
+                    write!(
+                        f,
+                        "the logs do not tell the hub's inertia from the beam's{free}: the beam is held at the starting density ({:.4e} kg/m^3) with the torque read true, and Jm and friction are fitted with them; give the density you know (--known-density or --material) or log the move again with a weighed tip mass (--tip-masses) to measure them",
+                        h.density_kg_m3
+                    )
+                }
             }
             Warning::ReplayDrifts {
                 rms_deg,

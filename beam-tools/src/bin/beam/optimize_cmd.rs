@@ -342,18 +342,33 @@ fn run_n<const N: usize>(beam: &Beam, a: &OptimizeArgs) -> anyhow::Result<()> {
         motion,
         spec.load_hold,
     )?;
+    // The baseline on the same move (its shaper is the designed law's own, if any).
     let baseline = full_metrics(
         &model,
         Law::Pd(PdGains::BASELINE),
         spec.instruments,
         a.seed,
-        beam_sim::sim::Motion::default(),
+        spec.motion,
         spec.load_hold,
     )?;
-    if let Some(path) = &a.table {
+    // A row the drive would build in must settle: gains that never do are shown, not
+    // written.
+    let settles = winner.settle_s.is_some();
+    if let (Some(path), true) = (&a.table, settles) {
         write_row(path, &outcome, &spec, a, beam, N, &winner)?;
     }
-    report(&outcome, &spec, &winner, &baseline, a, seconds)
+    report(&outcome, &spec, &winner, &baseline, a, seconds)?;
+    if let (Some(path), false) = (&a.table, settles) {
+        bail!(
+            "{}: not written: the gains found never settle (hub within 0.05 deg of the target and root strain within 5 ue for good) in a {} s run of the move{}; design for the settle time (--objective settle), give a starting point (--start), or use a law that damps the beam (lqg, smc-modal): a lightly damped beam under a law that does not damp it rings past the 5 ue band for longer than the run",
+            path.display(),
+            beam_tools::design::optimize::FULL_RUN_S,
+            baseline
+                .settle_s
+                .map_or(String::new(), |s| format!(", which PD 20/1 settles in {s:.3} s"))
+        );
+    }
+    Ok(())
 }
 
 /// The robust design's scenario set, drawn with the seed (empty without --robust).
@@ -669,8 +684,19 @@ fn report(
         "  settled: hub within 0.05 deg of the target and root strain within 5 ue for good, in a {} s run (inf: never)",
         beam_tools::design::optimize::FULL_RUN_S
     );
-    if let Some(path) = &a.table {
+    if let (Some(path), Some(_)) = (&a.table, win.settle_s) {
         println!("  row written to {}", path.display());
+    }
+    if let (Some(w), Some(b)) = (win.settle_s, base.settle_s) {
+        if w > b {
+            println!(
+                "  warning: the designed gains settle later than PD 20/1 ({w:.3} s against {b:.3} s): the objective ({}) is not the settle time; --objective settle designs for it",
+                match spec.objective {
+                    Objective::Cost => "the paper's J",
+                    Objective::Settle(_) => "the settle time, over the scenarios",
+                }
+            );
+        }
     }
     Ok(())
 }

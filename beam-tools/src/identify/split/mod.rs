@@ -111,6 +111,9 @@ pub struct HeldBeam {
     pub density_kg_m3: f64,
     /// What the free fit gave, if it ran to the end: Jm, density, torque scale.
     pub free: Option<(f64, f64, f64)>,
+    /// Whether the density was the user's (`Reference::Density`): then it is the torque's
+    /// scale that the logs could not give.
+    pub density_given: bool,
 }
 
 /// What the split found besides the beam's parameters.
@@ -588,6 +591,7 @@ fn rigid_body<const N: usize>(
     let beam_held = balance.beam_held.then(|| HeldBeam {
         density_kg_m3: balance.params.density_kg_m3,
         free: free.map(|f| (f[0], f[1], f[4])),
+        density_given: matches!(reference, Reference::Density(_)),
     });
     // Friction cannot be negative: a balance that finds it so is held at zero, and said.
     let mut at_bound = beam.at_bound.clone();
