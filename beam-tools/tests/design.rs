@@ -27,6 +27,7 @@ fn spec(m: &ModalModel<3>, seed: u64) -> Spec {
         max_err_deg_0_6: Some(1.0),
         hold: Some((1.0, 0.5)),
         torque_fraction: 0.99,
+        max_root_strain_ue: None,
         samples: 48,
         search: beam_tools::design::optimize::Search::Sampled,
         starts: 1,
@@ -290,4 +291,47 @@ fn optimize_writes_no_row_that_never_settles_and_says_when_pd_settles_sooner() {
     );
     assert!(table.exists());
     assert!(text.contains("settle later than PD 20/1"), "{text}");
+}
+
+#[test]
+fn a_root_strain_bound_holds_on_the_design_and_refuses_one_the_move_cannot_meet() {
+    // The paper's slew: the unconstrained design's peak root strain over the run.
+    let m = model(0.0);
+    let peak_ue = |law| {
+        let run = simulate(&m, law, &SimOptions::default()).unwrap();
+        1e6 * run
+            .samples
+            .iter()
+            .map(|s| s.root_strain.abs())
+            .fold(0.0, f64::max)
+    };
+    let free = optimize(&m, &spec(&m, 7), &|_, _| {});
+    let free_peak = peak_ue(free.best.law);
+    let bounded = |bound: f64| {
+        optimize(
+            &m,
+            &Spec {
+                max_root_strain_ue: Some(bound),
+                ..spec(&m, 7)
+            },
+            &|_, _| {},
+        )
+    };
+    // A bound just above it: a feasible design that keeps to it on an independent run (the
+    // search's path changes, as candidates past the bound rank as infeasible).
+    let loose = bounded(1.05 * free_peak);
+    assert!(loose.best.feasible());
+    assert!(peak_ue(loose.best.law) <= 1.05 * free_peak);
+    // Half of it: the move itself bends the beam more than that under any gains the search
+    // tries (the least it found was about 1000 ue, measured 2026-11-26), so no design is
+    // feasible, and the violation says by how much.
+    let tight = bounded(0.5 * free_peak);
+    let tight_peak = peak_ue(tight.best.law);
+    eprintln!(
+        "peak root strain: free {free_peak:.0} ue; bounded at {:.0}: best {tight_peak:.0} ue, violation {:.3}",
+        0.5 * free_peak,
+        tight.best.violation
+    );
+    assert!(!tight.best.feasible());
+    assert!((tight.best.violation - (tight_peak / (0.5 * free_peak) - 1.0)).abs() < 1e-6);
 }

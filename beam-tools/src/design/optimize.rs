@@ -175,6 +175,9 @@ pub struct Spec {
     pub quantile: f64,
     /// Constraint: peak commanded torque at most this fraction of the drive limit.
     pub torque_fraction: f64,
+    /// Constraint: the true root strain at most this, ue, over the whole run (the move
+    /// included); `None`: not constrained (the drive's over-strain trip still is).
+    pub max_root_strain_ue: Option<f64>,
     /// Latin-hypercube samples of the global stage (with [`Search::Evolution`], the
     /// population).
     pub samples: usize,
@@ -480,6 +483,14 @@ fn score<const N: usize>(
         .map(|s| s.torque.abs())
         .fold(0.0, f64::max);
     let mut violation = peak / (spec.torque_fraction * limit) - 1.0;
+    if let Some(max_ue) = spec.max_root_strain_ue {
+        let strain = run
+            .samples
+            .iter()
+            .map(|s| s.root_strain.abs())
+            .fold(0.0, f64::max);
+        violation = violation.max(1e6 * strain / max_ue - 1.0);
+    }
     let err_at = |t: f64| {
         let k = run.samples.iter().position(|s| s.t >= t - 1e-9)?;
         Some((run.samples[k].theta - run.theta_final).abs().to_degrees())
