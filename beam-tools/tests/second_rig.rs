@@ -12,7 +12,7 @@
 mod common;
 
 use beam_tools::io::params_file;
-use model_core::{Beam, BeamParams, ModalModel};
+use model_core::BeamParams;
 
 /// The rig: a 0.62 m strip of 0.8 mm steel on a hub of 0.01 kg m^2, with friction.
 fn truth() -> BeamParams {
@@ -37,10 +37,17 @@ fn truth() -> BeamParams {
     }
 }
 
-fn clamped_hz(p: BeamParams) -> f64 {
-    ModalModel::<3>::try_build(&Beam::try_build(p).unwrap())
-        .unwrap()
-        .clamped_hz[0]
+/// The drawing's parameters: the strip 10 % thick (EI +33 %, mass +10 %, the first mode
+/// +10 %; its thickness is known to +-10 %), and no difference of friction by direction.
+fn drawing() -> BeamParams {
+    let t = truth();
+    let thick = 1.1 * t.thickness_m;
+    BeamParams {
+        thickness_m: thick,
+        ei_nm2: 200e9 * t.width_m * thick * thick * thick / 12.0,
+        coulomb_asym_nm: 0.0,
+        ..t
+    }
 }
 
 /// The rig's log of a PD step from `from` to `to` rad in 0.3 s: 2 s at rest, then 5 s.
@@ -59,20 +66,7 @@ fn rig_log_filtered(from: f32, to: f32, seed: u64, tau_s: f64) -> String {
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
-    // Deterministic noise: a linear congruential generator's uniform draws, summed in
-    // threes (near-Gaussian), of unit variance.
-    let mut x = seed;
-    let mut gauss = move || {
-        (0..3)
-            .map(|_| {
-                x = x
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .sum::<f64>()
-            * 2.0
-    };
+    let mut gauss = common::gauss(seed);
     let round = |v: f64, q: f64| (v / q).round() * q;
     let mut out = String::from("time,volts_torque,hub,tip\n");
     let rest = 2000;
@@ -86,6 +80,13 @@ fn rig_log_filtered(from: f32, to: f32, seed: u64, tau_s: f64) -> String {
         } else {
             (r[theta], r[tip])
         };
+        // The sensor's filter (backward Euler at 1 kHz), updated before it is read: with
+        // no filter the reading is this sample's deflection, not the last one's.
+        filtered = if tau_s > 0.0 {
+            (filtered * tau_s + w * 1e-3) / (tau_s + 1e-3)
+        } else {
+            w
+        };
         out.push_str(&format!(
             "{:.3},{:.6},{:.3},{:.3}\n",
             k as f64 * 1e-3,
@@ -93,11 +94,6 @@ fn rig_log_filtered(from: f32, to: f32, seed: u64, tau_s: f64) -> String {
             round(th + 3e-4 * gauss(), 1e-3),
             round(filtered, 1e-3),
         ));
-        filtered += if tau_s > 0.0 {
-            (w - filtered) * (1e-3 / tau_s).min(1.0)
-        } else {
-            w - filtered
-        };
     }
     out
 }
@@ -109,24 +105,16 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
     let down = dir.join("down.csv");
     std::fs::write(&up, rig_log(0.0, 0.1, 1)).unwrap();
     std::fs::write(&down, rig_log(0.1, 0.0, 2)).unwrap();
-    // The drawing's parameters: the strip 10 % thick (EI +33 %, mass +10 %).
-    let t = truth();
-    let thick = 1.1 * t.thickness_m;
-    let guess = BeamParams {
-        thickness_m: thick,
-        ei_nm2: 200e9 * t.width_m * thick * thick * thick / 12.0,
-        coulomb_asym_nm: 0.0,
-        ..t
-    };
+    let (t, guess) = (truth(), drawing());
     let params = dir.join("guess.toml");
     std::fs::write(
         &params,
         params_file::render(&guess, "the drawing's, 10 % thick"),
     )
     .unwrap();
-    let want = clamped_hz(t);
+    let want = common::first_clamped_hz(t);
     assert!(
-        (clamped_hz(guess) / want - 1.0).abs() > 0.05,
+        (common::first_clamped_hz(guess) / want - 1.0).abs() > 0.05,
         "the guess is off"
     );
     let (up, down, params) = (
@@ -181,19 +169,7 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
     for (name, from, to, seed) in [("up2", 0.1, 0.2, 5), ("down2", 0.2, 0.1, 6)] {
         let held = dir.join(format!("{name}.csv"));
         std::fs::write(&held, rig_log(from, to, seed)).unwrap();
-        let r = common::json(&common::beam(&[
-            "replay",
-            held.to_str().unwrap(),
-            "--params",
-            found.to_str().unwrap(),
-            "--columns",
-            columns,
-            "--json",
-        ]));
-        let (tip, hub) = (
-            r["beam_rel_err"].as_f64().unwrap(),
-            r["hub_rms_err_deg"].as_f64().unwrap(),
-        );
+        let (tip, hub) = common::replay_errors(&held, &found, columns);
         eprintln!(
             "held out ({name}, from up and down): tip {:.1} % RMS, open-loop hub {hub:.2} deg RMS",
             100.0 * tip
@@ -202,22 +178,19 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
         assert!(hub < 2.0, "{name}: open-loop hub {hub} deg");
     }
     let file = std::fs::read_to_string(&found).unwrap();
-    let offset: f64 = file
-        .lines()
-        .find_map(|l| l.strip_prefix("torque_offset_nm = "))
-        .expect("the offset in the parameter file")
-        .trim()
-        .parse()
-        .unwrap();
+    let key = |k: &str| -> f64 {
+        let prefix = format!("{k} = ");
+        file.lines()
+            .find_map(|l| l.strip_prefix(prefix.as_str()))
+            .unwrap_or_else(|| panic!("{k} in the parameter file"))
+            .trim()
+            .parse()
+            .unwrap()
+    };
+    let offset = key("torque_offset_nm");
     assert!((offset - 0.02).abs() < 0.002, "offset {offset} N m");
     // The friction's difference by direction: 8 mN m in the rig (28 up, 12 down).
-    let asym: f64 = file
-        .lines()
-        .find_map(|l| l.strip_prefix("coulomb_asym_nm = "))
-        .expect("the friction's difference in the parameter file")
-        .trim()
-        .parse()
-        .unwrap();
+    let asym = key("coulomb_asym_nm");
     assert!((asym - 0.008).abs() < 0.003, "coulomb_asym_nm {asym} N m");
 }
 
@@ -262,14 +235,7 @@ fn the_logs_ringing_is_reported_and_holds_the_model_to_it() {
     let dir = common::scratch("second-rig-ringing");
     let up = dir.join("up.csv");
     std::fs::write(&up, rig_log(0.0, 0.1, 4)).unwrap();
-    let t = truth();
-    let thick = 1.1 * t.thickness_m;
-    let guess = BeamParams {
-        thickness_m: thick,
-        ei_nm2: 200e9 * t.width_m * thick * thick * thick / 12.0,
-        coulomb_asym_nm: 0.0,
-        ..t
-    };
+    let (t, guess) = (truth(), drawing());
     let params = dir.join("guess.toml");
     std::fs::write(&params, params_file::render(&guess, "10 % thick")).unwrap();
     let run = |extra: &[&str]| {
@@ -293,7 +259,7 @@ fn the_logs_ringing_is_reported_and_holds_the_model_to_it() {
     assert!((model / log - 1.0).abs() < 0.005, "{log} {model}");
     // The soft PD hold swings the hub with the beam: the log rings below the clamped mode,
     // which is why the model is compared ringing for ringing, on the same hub.
-    assert!(log < 0.99 * clamped_hz(t), "{log}");
+    assert!(log < 0.99 * common::first_clamped_hz(t), "{log}");
     let warns = |v: &serde_json::Value| {
         v["warnings"]
             .as_array()
@@ -344,14 +310,7 @@ fn a_tip_sensor_behind_a_filter_keeps_the_first_mode_and_the_ringing() {
     // its phase lag changes with frequency, which no single delay matches. The default
     // calibration must still find the first mode, and the model ring where the log does.
     let dir = common::scratch("second-rig-filter");
-    let t = truth();
-    let thick = 1.1 * t.thickness_m;
-    let guess = BeamParams {
-        thickness_m: thick,
-        ei_nm2: 200e9 * t.width_m * thick * thick * thick / 12.0,
-        coulomb_asym_nm: 0.0,
-        ..t
-    };
+    let (t, guess) = (truth(), drawing());
     let params = dir.join("guess.toml");
     std::fs::write(&params, params_file::render(&guess, "10 % thick")).unwrap();
     let up = dir.join("up.csv");
@@ -373,8 +332,11 @@ fn a_tip_sensor_behind_a_filter_keeps_the_first_mode_and_the_ringing() {
     );
     eprintln!(
         "tip behind 56 ms: first clamped mode {:+.2} %, rings: log {log:.4} Hz, model {model:.4} Hz",
-        100.0 * (found / clamped_hz(t) - 1.0)
+        100.0 * (found / common::first_clamped_hz(t) - 1.0)
     );
-    assert!((found / clamped_hz(t) - 1.0).abs() < 0.03, "{found}");
+    assert!(
+        (found / common::first_clamped_hz(t) - 1.0).abs() < 0.03,
+        "{found}"
+    );
     assert!((model / log - 1.0).abs() < 0.005, "{log} {model}");
 }

@@ -22,12 +22,6 @@ fn truth() -> BeamParams {
     }
 }
 
-fn clamped_hz(p: BeamParams) -> f64 {
-    ModalModel::<3>::try_build(&Beam::try_build(p).unwrap())
-        .unwrap()
-        .clamped_hz[0]
-}
-
 /// A log of the hub PD (the paper's Kp 20, Kd 1) commanded in steps: `steps` holds each
 /// step's time and target, rad; `duration_s` long, logged at 500 Hz.
 fn step_log(steps: &[(f64, f64)], duration_s: f64, seed: u64) -> String {
@@ -37,18 +31,7 @@ fn step_log(steps: &[(f64, f64)], duration_s: f64, seed: u64) -> String {
     let per_sample = (2e-3 / h).ceil() as usize;
     let h = 2e-3 / per_sample as f64;
     let mut x = State::<3>::at_rest(0.0);
-    let mut x_state = seed;
-    let mut gauss = move || {
-        (0..3)
-            .map(|_| {
-                x_state = x_state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (x_state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .sum::<f64>()
-            * 2.0
-    };
+    let mut gauss = common::gauss(seed);
     let count = std::f64::consts::TAU / 4096.0;
     let mut out = String::from("t,tau_derived,encoder,gauge\n");
     let samples = (duration_s / 2e-3).round() as usize;
@@ -108,21 +91,18 @@ fn a_raw_train_of_steps_is_cut_calibrated_step_by_step_and_predicts_held_out_ste
         beam_tools::io::params_file::render(&guess, "the drawing's"),
     )
     .unwrap();
-    let want = clamped_hz(t);
+    let want = common::first_clamped_hz(t);
     let (log, params) = (log.to_str().unwrap(), params.to_str().unwrap());
+    // `beam calibrate` on the log with the drawing's parameters, and `extra`.
+    let calibrate = |extra: &[&str]| {
+        let mut args = vec!["calibrate", log, "--params", params, "--columns", COLUMNS];
+        args.extend(extra);
+        args.push("--json");
+        common::json(&common::beam(&args))
+    };
     // The whole log, calibrated as it comes: cut into its six moves.
     let found = dir.join("found.toml");
-    let v = common::json(&common::beam(&[
-        "calibrate",
-        log,
-        "--params",
-        params,
-        "--columns",
-        COLUMNS,
-        "--out",
-        found.to_str().unwrap(),
-        "--json",
-    ]));
+    let v = calibrate(&["--out", found.to_str().unwrap()]);
     let moves = v["logs"].as_array().unwrap();
     assert_eq!(moves.len(), train.len(), "{:?}", moves);
     let hz = v["identified"]["clamped_hz"][0].as_f64().unwrap();
@@ -147,19 +127,7 @@ fn a_raw_train_of_steps_is_cut_calibrated_step_by_step_and_predicts_held_out_ste
         .collect();
     for (a, b) in &windows {
         let (from, to) = (format!("{a}"), format!("{b}"));
-        let v = common::json(&common::beam(&[
-            "calibrate",
-            log,
-            "--params",
-            params,
-            "--columns",
-            COLUMNS,
-            "--from",
-            &from,
-            "--to",
-            &to,
-            "--json",
-        ]));
+        let v = calibrate(&["--from", &from, "--to", &to]);
         let hz = v["identified"]["clamped_hz"][0].as_f64().unwrap();
         eprintln!(
             "the step {a:.2}..{b:.2} s alone: first clamped mode {:+.2} %",
@@ -175,19 +143,7 @@ fn a_raw_train_of_steps_is_cut_calibrated_step_by_step_and_predicts_held_out_ste
     for (target, seed, what) in [(0.2, 2, "up 0.2 rad"), (-0.25, 3, "down 0.25 rad")] {
         let held = dir.join(format!("held-{seed}.csv"));
         std::fs::write(&held, step_log(&[(0.4, target)], 2.0, seed)).unwrap();
-        let r = common::json(&common::beam(&[
-            "replay",
-            held.to_str().unwrap(),
-            "--params",
-            found.to_str().unwrap(),
-            "--columns",
-            COLUMNS,
-            "--json",
-        ]));
-        let (strain, hub) = (
-            r["beam_rel_err"].as_f64().unwrap(),
-            r["hub_rms_err_deg"].as_f64().unwrap(),
-        );
+        let (strain, hub) = common::replay_errors(&held, &found, COLUMNS);
         eprintln!(
             "held out, {what}: strain {:.1} % RMS, open-loop hub {hub:.2} deg RMS",
             100.0 * strain

@@ -39,96 +39,28 @@ pub struct ReplayReport {
 /// Why [`vibration_hz`] finds no frequency.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum NoFrequency {
-    /// Fewer than 16 samples, or nothing but a line (no vibration).
+    /// Nothing but a line (no vibration).
     Flat,
     /// The signal fits best with fewer than two cycles in the window: its frequency cannot
     /// be told from the window's length (a longer log after the move can).
     WindowTooShort,
 }
 
-/// The dominant vibration frequency of `signal` over `[from, to]` s (times `t`): the
-/// frequency of the damped sinusoid plus straight line that fits it best in least squares
-/// (variable projection: amplitude, phase and line in closed form for each frequency and
-/// decay rate tried), searched around the peak of the detrended periodogram between two
-/// cycles over the span and a quarter of the sample rate (at most 200 Hz): a mode slower
-/// than two cycles of the window is not seen, and the caller must not ask for one
-/// ([`replay_report`] checks the window against the model's first mode).
-/// [`NoFrequency::WindowTooShort`] when not even that range exists, [`NoFrequency::Flat`]
-/// with fewer than 16 samples or a flat signal. (Mean crossings, used before, counted the
-/// gauge's noise as cycles on a small residual; a bare periodogram peak is pulled by the
-/// decay and the hub's slow motion.)
+/// The vibration frequency of `signal` over `[from, to]` s (times `t`): the undamped
+/// frequency of the damped sinusoid plus line that fits it best
+/// ([`crate::identify::ringing::ringing`], which calibration holds its model to; a mode
+/// slower than two cycles of the window is not seen, and the caller must not ask for one:
+/// [`replay_report`] checks the window against the model's first mode).
+/// [`NoFrequency::WindowTooShort`] when the window holds too few samples or too little time
+/// for any frequency, [`NoFrequency::Flat`] when the signal does not ring in it.
 pub fn vibration_hz(t: &[f64], signal: &[f64], from: f64, to: f64) -> Result<f64, NoFrequency> {
-    let idx: Vec<usize> = (0..t.len())
-        .filter(|&k| t[k] >= from && t[k] <= to)
-        .collect();
-    if idx.len() < 16 {
-        return Err(NoFrequency::Flat);
-    }
-    let ts: Vec<f64> = idx.iter().map(|&k| t[k] - t[idx[0]]).collect();
-    let ys: Vec<f64> = idx.iter().map(|&k| signal[k]).collect();
-    if !ys.iter().all(|y| y.is_finite()) {
-        return Err(NoFrequency::Flat);
-    }
-    let mut line = crate::identify::lsq::Normal::new(2);
-    ts.iter()
-        .zip(&ys)
-        .for_each(|(x, y)| line.add(&[1.0, *x], *y));
-    let yy: f64 = ys.iter().map(|y| y * y).sum();
-    if line.solve().is_none_or(|f| f.rss <= 1e-20 * yy) {
-        return Err(NoFrequency::Flat);
-    }
-    let span = ts[ts.len() - 1];
-    let dt = span / (ts.len() - 1) as f64;
-    let (lo, hi) = (2.0 / span, (0.25 / dt).min(200.0));
-    if !(hi > lo) {
-        return Err(NoFrequency::WindowTooShort);
-    }
-    // Residual sum of squares of the best fit of [e^-st cos wt, e^-st sin wt, 1, t].
-    let misfit = |f: f64, decay: f64| -> f64 {
-        let w = 2.0 * core::f64::consts::PI * f;
-        let mut ata = [[0.0f64; 4]; 4];
-        let mut atb = [0.0f64; 4];
-        let mut bb = 0.0;
-        for (x, y) in ts.iter().zip(&ys) {
-            let e = (-decay * x).exp();
-            let row = [e * (w * x).cos(), e * (w * x).sin(), 1.0, *x];
-            for i in 0..4 {
-                for j in 0..4 {
-                    ata[i][j] += row[i] * row[j];
-                }
-                atb[i] += row[i] * y;
-            }
-            bb += y * y;
-        }
-        match crate::identify::lsq::solve(ata.iter().map(|r| r.to_vec()).collect(), atb.to_vec()) {
-            Some(c) => bb - c.iter().zip(&atb).map(|(c, b)| c * b).sum::<f64>(),
-            None => f64::INFINITY,
-        }
-    };
-    let decays = [0.0, 0.1, 0.2, 0.4, 0.7, 1.0, 1.5, 2.0, 3.0, 5.0];
-    let best_on = |a: f64, b: f64, step: f64, decays: &[f64]| -> (f64, f64) {
-        let steps = ((b - a) / step).ceil() as usize;
-        let mut best = (a, 0.0, f64::INFINITY);
-        for i in 0..=steps {
-            let f = (a + i as f64 * step).min(b);
-            for &d in decays {
-                let m = misfit(f, d);
-                if m < best.2 {
-                    best = (f, d, m);
-                }
-            }
-        }
-        (best.0, best.1)
-    };
-    let (coarse, _) = best_on(lo, hi, 0.05, &[0.0]);
-    let (mid, decay) = best_on(
-        (coarse - 0.5).max(lo),
-        (coarse + 0.5).min(hi),
-        0.01,
-        &decays,
-    );
-    let fine: Vec<f64> = (0..=20).map(|i| decay * (0.8 + 0.02 * i as f64)).collect();
-    Ok(best_on((mid - 0.01).max(lo), (mid + 0.01).min(hi), 0.0005, &fine).0)
+    use crate::identify::ringing::{ringing, NoRinging};
+    ringing(t, signal, from, to)
+        .map(|r| r.hz)
+        .map_err(|e| match e {
+            NoRinging::TooShort => NoFrequency::WindowTooShort,
+            NoRinging::Flat => NoFrequency::Flat,
+        })
 }
 
 /// `log` as the model sees it through the rig's `sensors`: the torque the hub received and
@@ -532,7 +464,10 @@ mod tests {
             vibration_hz(&t, &vec![1.0; 1000], 0.0, 2.0),
             Err(NoFrequency::Flat)
         );
-        assert_eq!(vibration_hz(&t, &y, 0.0, 0.02), Err(NoFrequency::Flat));
+        assert_eq!(
+            vibration_hz(&t, &y, 0.0, 0.02),
+            Err(NoFrequency::WindowTooShort)
+        );
     }
 
     #[test]

@@ -102,3 +102,46 @@ pub fn pd_move_csv(
     beam_tools::io::files::write_trace_csv(&run, &mut csv).expect("writes to memory");
     String::from_utf8(csv).expect("the CSV is text")
 }
+
+/// The first clamped mode of a 3-mode model of `params`, Hz.
+pub fn first_clamped_hz(params: model_core::BeamParams) -> f64 {
+    let beam = model_core::Beam::try_build(params).expect("the test's beam builds");
+    model_core::ModalModel::<3>::try_build(&beam)
+        .expect("its model builds")
+        .clamped_hz[0]
+}
+
+/// Deterministic noise of unit variance for the stand-in logs: a linear congruential
+/// generator's uniform draws, summed in threes (near-Gaussian).
+pub fn gauss(seed: u64) -> impl FnMut() -> f64 {
+    let mut x = seed;
+    move || {
+        (0..3)
+            .map(|_| {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .sum::<f64>()
+            * 2.0
+    }
+}
+
+/// `beam replay LOG --params PARAMS --columns COLUMNS`: the beam signal's RMS error as a
+/// fraction of its RMS (hub prescribed), and the open-loop hub's RMS error, deg.
+pub fn replay_errors(log: &std::path::Path, params: &std::path::Path, columns: &str) -> (f64, f64) {
+    let r = json(&beam(&[
+        "replay",
+        log.to_str().unwrap(),
+        "--params",
+        params.to_str().unwrap(),
+        "--columns",
+        columns,
+        "--json",
+    ]));
+    (
+        r["beam_rel_err"].as_f64().unwrap(),
+        r["hub_rms_err_deg"].as_f64().unwrap(),
+    )
+}
