@@ -125,43 +125,27 @@ pub fn ringing(t: &[f64], signal: &[f64], from: f64, to: f64) -> Result<Ringing,
     // the slowest that explains half what the best ringing one does.
     let mut minima: Vec<usize> = (0..scan.len()).filter(|&i| minimum(i)).collect();
     minima.sort_by(|&a, &b| scan[a].total_cmp(&scan[b]));
-    let mut rings: Vec<(f64, f64, f64)> = minima
+    // (Each with its interval: a point whose misfit does not curve up both ways is not a
+    // minimum of it.)
+    let mut rings: Vec<(f64, f64, f64, (f64, f64))> = minima
         .into_iter()
         .take(RING_CANDIDATES)
         .map(|i| w.refine(grid[i]))
         .filter(|&(f, zeta)| zeta < MAX_RING_DAMPING && f > lo * 1.001 && f < hi * 0.999)
-        .map(|(f, zeta)| (f, zeta, w.rss(f, zeta)))
+        .map(|(f, zeta)| (f, zeta, w.rss(f, zeta), w.sigmas(f, zeta)))
+        .filter(|r| r.3 .0.is_finite())
         .collect();
     let best_ring = rings.iter().map(|r| r.2).fold(f64::INFINITY, f64::min);
     rings.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (f, zeta, _) = rings
+    let (f, zeta, _, (sigma_f, sigma_z)) = rings
         .into_iter()
         .find(|r| line_rss - r.2 >= 0.5 * (line_rss - best_ring))
         .ok_or(NoRinging::Flat)?;
-    // Intervals from the curvature of the misfit (the linear parts profiled out): the
-    // covariance is 2 s^2 H^-1, with the residual variance counted over the independent
-    // samples the residuals' lag-one correlation leaves.
-    let rss = w.rss(f, zeta);
-    let count = w.t.len() as f64;
-    let rho = w.lag_one(f, zeta).clamp(0.0, 0.99);
-    let s2 = rss / (count - 6.0).max(1.0) * (1.0 + rho) / (1.0 - rho);
-    let (hf, hz) = (1e-4 * f, 1e-3_f64.max(0.05 * zeta));
-    let zc = zeta.max(hz);
-    let e = |df: f64, dz: f64| w.rss(f + df, zc + dz);
-    let h00 = (e(hf, 0.0) - 2.0 * e(0.0, 0.0) + e(-hf, 0.0)) / (hf * hf);
-    let h11 = (e(0.0, hz) - 2.0 * e(0.0, 0.0) + e(0.0, -hz)) / (hz * hz);
-    let h01 = (e(hf, hz) - e(hf, -hz) - e(-hf, hz) + e(-hf, -hz)) / (4.0 * hf * hz);
-    let det = h00 * h11 - h01 * h01;
-    let (var_f, var_z) = if det > 0.0 && h00 > 0.0 {
-        (2.0 * s2 * h11 / det, 2.0 * s2 * h00 / det)
-    } else {
-        (f64::INFINITY, f64::INFINITY)
-    };
     Ok(Ringing {
         hz: f,
-        hz_sigma: var_f.sqrt(),
+        hz_sigma: sigma_f,
         damping_ratio: zeta,
-        damping_sigma: var_z.sqrt(),
+        damping_sigma: sigma_z,
         from_s: t[idx[0]],
         to_s: t[idx[idx.len() - 1]],
     })
@@ -296,6 +280,29 @@ impl Window {
                 [e * (wd * t).cos(), e * (wd * t).sin(), 1.0, t]
             })
             .collect()
+    }
+
+    /// The one-sigma errors of frequency and damping at the minimum `(f, zeta)`, from the
+    /// curvature of the misfit (the linear parts profiled out): the covariance is
+    /// `2 s^2 H^-1`, with the residual variance counted over the independent samples the
+    /// residuals' lag-one correlation leaves. Infinite where the misfit does not curve up.
+    fn sigmas(&self, f: f64, zeta: f64) -> (f64, f64) {
+        let rss = self.rss(f, zeta);
+        let count = self.t.len() as f64;
+        let rho = self.lag_one(f, zeta).clamp(0.0, 0.99);
+        let s2 = rss / (count - 6.0).max(1.0) * (1.0 + rho) / (1.0 - rho);
+        let (hf, hz) = (1e-4 * f, 1e-3_f64.max(0.05 * zeta));
+        let zc = zeta.max(hz);
+        let e = |df: f64, dz: f64| self.rss(f + df, zc + dz);
+        let h00 = (e(hf, 0.0) - 2.0 * e(0.0, 0.0) + e(-hf, 0.0)) / (hf * hf);
+        let h11 = (e(0.0, hz) - 2.0 * e(0.0, 0.0) + e(0.0, -hz)) / (hz * hz);
+        let h01 = (e(hf, hz) - e(hf, -hz) - e(-hf, hz) + e(-hf, -hz)) / (4.0 * hf * hz);
+        let det = h00 * h11 - h01 * h01;
+        if det > 0.0 && h00 > 0.0 {
+            ((2.0 * s2 * h11 / det).sqrt(), (2.0 * s2 * h00 / det).sqrt())
+        } else {
+            (f64::INFINITY, f64::INFINITY)
+        }
     }
 
     /// The least-squares fit at `(f, zeta)`: its coefficients and residual sum of squares.
