@@ -113,6 +113,8 @@ pub struct Metrics {
     pub move_end_s: Option<f64>,
     /// max |torque|, N m.
     pub peak_torque_nm: Option<f64>,
+    /// max |root strain| over the whole run, the move included, microstrain.
+    pub peak_root_strain_ue: Option<f64>,
     /// max |theta - theta_r| over the move, 0..T, deg.
     pub max_track_err_deg: Option<f64>,
     /// |theta - theta_final| at 0.6 s (absolute, the paper's), deg.
@@ -238,6 +240,7 @@ pub fn metrics_with(run: &SimResult, settle: &SettleSpec) -> Metrics {
         settle_s,
         move_end_s: Some(after_move),
         peak_torque_nm: max_abs(&mut s.iter().map(|x| x.torque)),
+        peak_root_strain_ue: max_abs(&mut s.iter().map(|x| x.root_strain * UE)),
         max_track_err_deg: max_abs(
             &mut in_window(0.0, after_move).map(|x| (x.theta - x.theta_ref).to_degrees()),
         ),

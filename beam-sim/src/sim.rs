@@ -9,6 +9,8 @@
 use crate::plant::{Breakdown, Plant, State};
 use crate::sensors::{SensorConfig, Sensors};
 use model_core::controller::ConfigError;
+use model_core::law::LawPlant;
+use model_core::lqg::{LqgDesign, LqgError, DESIGN_MODES, MAX_STATES};
 use model_core::planner::MAX_WAYPOINTS;
 use model_core::spline::paper_slew;
 use model_core::{plan_through, Limits, Shaper, Timing, Waypoint};
@@ -78,6 +80,10 @@ pub struct SimOptions {
     pub fault: Option<Injection>,
     /// The move: the paper's slew unless changed.
     pub motion: Motion,
+    /// Feed the observer laws the beam's true state instead of their observer's estimate
+    /// ([`TrueState`]), to measure what the observer costs. The other laws read the
+    /// instruments as always.
+    pub true_state: bool,
 }
 
 /// A move as the host plans it, with model-core's planner: a minimum-jerk quintic from one
@@ -193,6 +199,7 @@ impl Default for SimOptions {
             sensors: SensorConfig::default(),
             fault: None,
             motion: Motion::default(),
+            true_state: false,
         }
     }
 }
@@ -361,7 +368,12 @@ pub fn simulate_mismatched<const N: usize>(
     let limits = Limits::for_law(nominal, &law);
     // Designed on the instruments the loop reads (an observer law's noise is theirs).
     let on = opts.sensors.instruments().on(nominal);
-    let law = ControlLaw::try_build(law, on).map_err(|e| SimError::Config(e.into()))?;
+    let law = if opts.true_state {
+        ControlLaw::try_build(law, TrueState(on))
+    } else {
+        ControlLaw::try_build(law, on)
+    }
+    .map_err(|e| SimError::Config(e.into()))?;
     let controller = Controller::try_build(settings, law, opts.motion.plan(&limits)?)
         .map_err(SimError::Config)?;
     run(Plant::new(*plant), controller, opts)
@@ -376,6 +388,31 @@ pub trait DriveLoop {
     fn tick(&mut self, raw: &RawMeasurement, start: bool) -> Result<TorqueCommand, SimError>;
     /// The latched faults at the end.
     fn faults(&self) -> model_core::FaultFlags;
+    /// The plant's state at the last tick, in an observer's layout (`[theta, q_1, q_2,
+    /// theta', q_1', q_2']`), before this tick's readings: the runner calls it with
+    /// [`SimOptions::true_state`]. A drive that cannot take it ignores it.
+    fn feed_truth(&mut self, _x: &[f32; MAX_STATES]) {}
+}
+
+/// A plant whose observer design has no gain ([`SimOptions::true_state`]): the observer
+/// only predicts, from the state the runner sets ([`DriveLoop::feed_truth`]) and the torque
+/// applied, so the law acts on the true state one tick's prediction ahead, the same
+/// instant its own observer would estimate.
+pub struct TrueState<P>(pub P);
+
+impl<P: LawPlant> LawPlant for TrueState<P> {
+    fn point(&self) -> model_core::PlantPoint {
+        self.0.point()
+    }
+
+    fn lqg(&self, gains: &LqgGains, ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
+        self.0.lqg(gains, ts_s).map(|design| {
+            design.map(|mut d| {
+                d.l = [[0.0; 2]; MAX_STATES];
+                d
+            })
+        })
+    }
 }
 
 impl<const K: usize> DriveLoop for Controller<K> {
@@ -394,6 +431,10 @@ impl<const K: usize> DriveLoop for Controller<K> {
 
     fn faults(&self) -> model_core::FaultFlags {
         Controller::faults(self)
+    }
+
+    fn feed_truth(&mut self, x: &[f32; MAX_STATES]) {
+        self.law_state_mut().lqg.estimate = *x;
     }
 }
 
@@ -477,6 +518,7 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
     let mut breakdown = None;
     let mut last_cmd = None;
     let mut stuck_raw = None;
+    let mut last_x = x;
     for k in 0..=ticks {
         let t = time_of(k);
         let mut raw = read(&x, &mut sensors);
@@ -496,10 +538,14 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
                 &opts.sensors,
             );
         }
+        if opts.true_state && k > 0 {
+            drive.feed_truth(&observed_layout(&last_x));
+        }
         let cmd = match (skip, last_cmd) {
             (true, Some(previous)) => previous,
             _ => drive.tick(&raw, k == 0)?,
         };
+        last_x = x;
         last_cmd = Some(cmd);
         let tau = plant.saturate(cmd.torque_nm as f64);
         let out = plant.outputs(&x);
@@ -552,4 +598,17 @@ pub fn run_with<const N: usize, const K: usize, D: DriveLoop>(
         }),
         faults: drive.faults(),
     })
+}
+
+/// `x` in an observer's layout: the hub, the first [`DESIGN_MODES`] modal coordinates (the
+/// plant's and the design's are the same assumed modes of the clamped beam), and their rates.
+fn observed_layout<const N: usize>(x: &State<N>) -> [f32; MAX_STATES] {
+    let mut out = [0.0f32; MAX_STATES];
+    out[0] = x.theta as f32;
+    out[1 + DESIGN_MODES] = x.omega as f32;
+    for i in 0..DESIGN_MODES.min(N) {
+        out[1 + i] = x.q[i] as f32;
+        out[2 + DESIGN_MODES + i] = x.qd[i] as f32;
+    }
+    out
 }

@@ -9,7 +9,9 @@ beam-tools`) and prints a Markdown table. With --plot DIR it also writes the 180
 sweep's histograms (settle time and residual strain, against PD 20/1) for smc-modal, lqg
 and pd-ff.
 With --readme it prints the README's table instead: a row per law, a cell per move
-(settle nominal / p50 / p95, s; peak torque over the sweep, N m).
+(settle nominal / p50 / p95, s; peak torque and peak root strain over the sweep, N m and
+microstrain), and the observer laws again with the beam's true state fed to the law
+(`--true-state`: what the observer costs).
 Usage: docs/settle/compare.py [CASES] [--plot DIR] [--readme]
 """
 import json
@@ -27,6 +29,8 @@ DURATION_S = 4.0
 # The damping ratio's range: 0.5-2 %, log-uniform.
 DAMPING = "0.005,0.02"
 PLOTTED = ("smc-modal", "lqg", "pd-ff")
+# The laws run again with the true state in place of their observer's estimate.
+TRUE_STATE = ["lqg", "smc-modal"]
 
 
 def beam(*args):
@@ -34,28 +38,30 @@ def beam(*args):
     return json.loads(out.stdout)
 
 
-def nominal(law, deg):
+def nominal(law, deg, *extra):
     v = beam("simulate", "--controller", law, "--from", -deg / 2, "--move", deg / 2,
-             "--time", "shortest", "--duration", DURATION_S, "--json")
+             "--time", "shortest", "--duration", DURATION_S, "--json", *extra)
     return v["settle_s"], v["move_end_s"], v["peak_torque_nm"]
 
 
-def hold(law):
+def hold(law, *extra):
     # 0.5 N m at rest for 0.5 s, after the paper's slew has settled.
     v = beam("simulate", "--controller", law, "--duration", 3.5, "--load-nm", 0.5,
-             "--load-at", 2.0, "--load-until", 2.5, "--json")
+             "--load-at", 2.0, "--load-until", 2.5, "--json", *extra)
     return v.get("hold_max_dev_deg")
 
 
-def spread(law, deg, cases, plot):
+def spread(law, deg, cases, plot, *extra):
     args = ["sweep", "--controller", law, "--moves", deg, "--shortest", "--cases", cases,
             "--coulomb-max", 0.05, "--damping-ratio", DAMPING, "--no-peer",
-            "--duration", DURATION_S, "--json"]
+            "--duration", DURATION_S, "--json", *extra]
     if plot:
         args += ["--plot", pathlib.Path(plot) / f"{law}-{deg}.png"]
     v = beam(*args)
     s = v["metrics"]["settle_s"] or {}
-    return s.get("p50"), s.get("p95"), v["unsettled"], v["breakdowns"], v["metrics"]["peak_torque_nm"]["max"]
+    m = v["metrics"]
+    return (s.get("p50"), s.get("p95"), v["unsettled"], v["breakdowns"],
+            m["peak_torque_nm"]["max"], m["peak_root_strain_ue"]["max"])
 
 
 def fmt(x, unit=""):
@@ -66,14 +72,16 @@ def readme(cases):
     print("| law | " + " | ".join(f"{d} deg" for d in MOVES)
           + f" | not settled of {cases * len(MOVES)} | hold 0.5 N m, deg |")
     print("|---|" + "---|" * len(MOVES) + "---|---|")
-    for law in LAWS:
+    rows = [(law, law, ()) for law in LAWS]
+    rows += [(law, f"{law}, fed the true state", ("--true-state",)) for law in TRUE_STATE]
+    for law, label, extra in rows:
         cells, unsettled = [], 0
         for deg in MOVES:
-            s, _, _ = nominal(law, deg)
-            p50, p95, never, _, peak_max = spread(law, deg, cases, None)
+            s, _, _ = nominal(law, deg, *extra)
+            p50, p95, never, _, peak_max, strain_max = spread(law, deg, cases, None, *extra)
             unsettled += never
-            cells.append(f"{fmt(s)} / {fmt(p50)} / {fmt(p95)}; {peak_max:.1f} N m")
-        print(f"| {law} | " + " | ".join(cells) + f" | {unsettled} | {fmt(hold(law))} |")
+            cells.append(f"{fmt(s)} / {fmt(p50)} / {fmt(p95)}; {peak_max:.1f} N m, {strain_max:.0f} ue")
+        print(f"| {label} | " + " | ".join(cells) + f" | {unsettled} | {fmt(hold(law, *extra))} |")
         sys.stdout.flush()
 
 
@@ -90,7 +98,7 @@ def main():
         for deg in MOVES:
             s, t, peak = nominal(law, deg)
             figure = plot if deg == 180 and law in PLOTTED else None
-            p50, p95, never, broke, peak_max = spread(law, deg, cases, figure)
+            p50, p95, never, broke, peak_max, _ = spread(law, deg, cases, figure)
             print(f"| {law} | {deg} deg | {fmt(s)} | {fmt(p50)} / {fmt(p95)} | {never} / {broke} | {t:.3f} | {peak:.1f} / {peak_max:.1f} | {fmt(held)} |")
             sys.stdout.flush()
 

@@ -660,6 +660,13 @@ impl<const K: usize> Controller<K> {
         &self.st.law_state
     }
 
+    /// The law's own state, to change: for a simulation that stands in for the observer
+    /// (the true state fed to the law, to measure what the observer costs). A drive never
+    /// calls it.
+    pub fn law_state_mut(&mut self) -> &mut LawState {
+        &mut self.st.law_state
+    }
+
     /// The latched faults.
     pub fn faults(&self) -> FaultFlags {
         self.st.faults

@@ -46,6 +46,8 @@ pub struct SweepSpec {
     /// The drive's instruments, which the simulated sensors are and the observer laws are
     /// designed on (a gain table's `[drive]`).
     pub instruments: Instruments,
+    /// Feed the controller's observer law the true state ([`SimOptions::true_state`]).
+    pub true_state: bool,
 }
 
 /// The simulated time a sweep runs by default, s: settle times of several seconds are common
@@ -220,6 +222,7 @@ impl<const N: usize> CaseBeams<N> {
             },
             motion: self.perturbation.motion(shaper),
             duration_s: spec.duration_s,
+            true_state: spec.true_state,
             ..Default::default()
         };
         simulate_mismatched(&self.plant, &self.drive, law, &opts)
@@ -299,9 +302,10 @@ pub fn settle_or_never(m: &Metrics) -> Option<f64> {
 
 /// The metrics a sweep reports, with their names: the settle time from the move command
 /// first; the windows after the move's end T; then the paper's absolute windows.
-pub const SUMMARY: [(&str, Pick); 9] = [
+pub const SUMMARY: [(&str, Pick); 10] = [
     ("settle_s", settle_or_never),
     ("peak_torque_nm", |m| m.peak_torque_nm),
+    ("peak_root_strain_ue", |m| m.peak_root_strain_ue),
     ("move_end_s", |m| m.move_end_s),
     ("rms_root_strain_ue_end_plus_0_05_0_25", |m| {
         m.rms_root_strain_ue_end_plus_0_05_0_25
@@ -391,6 +395,7 @@ mod tests {
             duration_s: DEFAULT_DURATION_S,
             settle: SettleSpec::default(),
             instruments: Instruments::DEFAULT,
+            true_state: false,
         };
         let with_more = SweepSpec {
             coulomb_max_nm: 0.05,

@@ -594,6 +594,10 @@ fn print_summary(run: &SimResult, law: &Law, preset: &str, modes: u8, settle: &S
         show(m.peak_torque_nm, "N m")
     );
     println!(
+        "  peak root strain, whole run    {}",
+        show(m.peak_root_strain_ue, "ue")
+    );
+    println!(
         "  max tracking error 0..T        {}",
         show(m.max_track_err_deg, "deg")
     );

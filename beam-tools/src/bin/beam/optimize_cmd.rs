@@ -437,6 +437,7 @@ fn scenarios(
         duration_s: beam_tools::design::sweep::DEFAULT_DURATION_S,
         settle: Default::default(),
         instruments: instruments(a)?,
+        true_state: false,
     };
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
     use rand::Rng;

@@ -37,6 +37,11 @@ pub(crate) struct SimulateArgs {
     /// Control law.
     #[arg(long, value_parser = named::<LawKind>(), default_value = "smc")]
     controller: LawKind,
+    /// Feed an observer law (lqg, smc-modal) the beam's true state instead of its
+    /// observer's estimate: what the law would do with perfect knowledge of the state, to
+    /// see what the observer costs.
+    #[arg(long)]
+    true_state: bool,
     /// PD proportional gain, N m/rad.
     #[arg(long, allow_negative_numbers = true)]
     kp: Option<f32>,
@@ -208,6 +213,7 @@ pub(crate) fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
             adc: table.map_or(run_opts.sensors.adc, |t| t.drive.instruments.adc),
             ..run_opts.sensors
         },
+        true_state: a.true_state,
         ..run_opts
     };
     let run = with_modes!(a.plant.modes, simulate_n(&beam, law, &opts))?;

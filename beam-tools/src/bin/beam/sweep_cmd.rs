@@ -71,6 +71,11 @@ pub struct SweepArgs {
     /// Do not run the pd-ff peer (feedforward + PD with its table shaper) on each case.
     #[arg(long)]
     no_peer: bool,
+    /// Feed an observer law (lqg, smc-modal) the beam's true state instead of its
+    /// observer's estimate: what the law would do with perfect knowledge of the state, to
+    /// see what the observer costs.
+    #[arg(long)]
+    true_state: bool,
     /// Write one row per case.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -121,6 +126,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         duration_s: a.duration,
         settle: a.settle.spec()?,
         instruments: table.map_or(model_core::Instruments::DEFAULT, |t| t.drive.instruments),
+        true_state: a.true_state,
     };
     if let Some(index) = a.case {
         return run_case(a, &nominal, &spec, &law_at, index);
