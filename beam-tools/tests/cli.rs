@@ -338,8 +338,24 @@ fn optimize_writes_a_valid_table_row() {
 
 #[test]
 fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
-    let cases: [(&[&str], &str); 23] = [
+    let cases: [(&[&str], &str); 25] = [
         (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
+        // Only an observer law has a state to feed.
+        (
+            &["simulate", "--controller", "smc", "--true-state"],
+            "has no observer",
+        ),
+        (
+            &[
+                "sweep",
+                "--controller",
+                "pd-ff",
+                "--true-state",
+                "--cases",
+                "2",
+            ],
+            "has no observer",
+        ),
         (&["simulate", "--time", "fast"], "shortest"),
         (
             &[

@@ -39,7 +39,7 @@ pub(crate) struct SimulateArgs {
     controller: LawKind,
     /// Feed an observer law (lqg, smc-modal) the beam's true state instead of its
     /// observer's estimate: what the law would do with perfect knowledge of the state, to
-    /// see what the observer costs.
+    /// see what the observer costs (refused for the other laws).
     #[arg(long)]
     true_state: bool,
     /// PD proportional gain, N m/rad.
@@ -198,6 +198,12 @@ pub(crate) fn default_law(
 }
 
 pub(crate) fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
+    if a.true_state && !a.controller.has_observer() {
+        bail!(
+            "--true-state feeds an observer law's state; {} has no observer (use lqg or smc-modal)",
+            a.controller.name()
+        );
+    }
     let beam = beam(&a.plant)?;
     let table = table_file::table_or_default(a.table.as_deref())?;
     let law = law(a, table)?;

@@ -73,7 +73,8 @@ pub struct SweepArgs {
     no_peer: bool,
     /// Feed an observer law (lqg, smc-modal) the beam's true state instead of its
     /// observer's estimate: what the law would do with perfect knowledge of the state, to
-    /// see what the observer costs.
+    /// see what the observer costs (refused for the other laws; PD 20/1 and the peer read
+    /// the instruments as always).
     #[arg(long)]
     true_state: bool,
     /// Write one row per case.
@@ -97,6 +98,12 @@ pub struct SweepArgs {
 
 pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     check(a)?;
+    if a.true_state && !a.controller.has_observer() {
+        bail!(
+            "--true-state feeds an observer law's state; {} has no observer (use lqg or smc-modal)",
+            a.controller.name()
+        );
+    }
     let nominal = *beam(&a.plant)?.params();
     let table = load_table(a)?;
     let tuned = |k: LawKind| {
