@@ -498,7 +498,7 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
             let payload = 0.5 * (w[0].payload_kg + w[1].payload_kg);
             let (drive, host, m) = designs_at(kind, payload);
             assert_ne!(drive, host);
-            let settle = |mixed: bool| {
+            let settle_with = |mixed: bool, seed: u64| {
                 let mut controller = build_controller_for(kind, payload).unwrap();
                 if !mixed {
                     // The same move and settings, the law designed on the exact model.
@@ -509,14 +509,30 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
                 }
                 let opts = SimOptions {
                     duration_s: 3.0,
+                    sensors: beam_sim::sensors::SensorConfig {
+                        seed,
+                        ..beam_sim::sensors::SensorConfig::default()
+                    },
                     ..SimOptions::default()
                 };
                 let run = run(Plant::new(m), controller, &opts).unwrap();
                 assert!(run.breakdown.is_none() && run.faults.is_empty());
                 metrics(&run).settle_s
             };
+            // The median over three noise draws: the strict band's settle time can jump by a
+            // tenth of a second on one tick of noise-driven strain after the beam has settled
+            // (5.07 ue at 0.93 s, where both designs had settled at 0.78 s).
+            let settle = |mixed: bool| {
+                let mut times: Vec<f64> = (1..=3)
+                    .map(|seed| settle_with(mixed, seed).unwrap_or(f64::INFINITY))
+                    .collect();
+                times.sort_by(f64::total_cmp);
+                Some(times[1]).filter(|t| t.is_finite())
+            };
             let (mixed, exact) = (settle(true), settle(false));
-            eprintln!("{kind} at {payload} kg: settle {mixed:?} s mixed, {exact:?} s exact");
+            eprintln!(
+                "{kind} at {payload} kg: settle {mixed:?} s mixed, {exact:?} s exact (median of 3)"
+            );
             let (mixed, exact) = (mixed.unwrap(), exact.unwrap());
             assert!(
                 mixed <= exact + 0.1,

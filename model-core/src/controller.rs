@@ -347,7 +347,7 @@ pub const STALL_TORQUE_FRACTION: f32 = 0.2;
 /// Ticks of one unchanged gauge code before the gauge counts as frozen (a converter that
 /// stopped converting, an open bridge read as its zero code): [`FaultFlags::GAUGE`]. A
 /// converter whose codes are at most a sixteenth of the gauge noise the designs assume
-/// ([`crate::law::ASSUMED_STRAIN_NOISE`], 1 ue; 0.0006 ue a code for the shipped 24-bit
+/// ([`crate::law::ASSUMED_STRAIN_NOISE`], 0.6 ue; 0.0006 ue a code for the shipped 24-bit
 /// converter at +-5000 ue) reads a live bridge's noise as a new code nearly every tick: two
 /// equal codes in a row come about once in 3000 ticks at 0.5 ue of noise, ten never. A
 /// coarser converter is not watched this way.

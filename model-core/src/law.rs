@@ -35,7 +35,7 @@ mod smc_strain;
 
 #[cfg(feature = "observer")]
 pub use lqg::ObserverState;
-pub use lqg::{LqgGains, ASSUMED_STRAIN_NOISE, LQG_MODES};
+pub use lqg::{LqgGains, ASSUMED_STRAIN_NOISE, LQG_MODES, TORQUE_LOWPASS_ALPHA, TORQUE_LOWPASS_HZ};
 pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
 pub use smc::SmcGains;
@@ -558,6 +558,17 @@ pub(crate) mod tests {
     use super::*;
     use crate::beam::{Beam, BeamParams};
     use crate::modal::ModalModel;
+
+    #[test]
+    fn the_torque_low_pass_step_is_its_corner_at_the_drives_tick() {
+        // 1 - exp(-2 pi f ts), in f64, against the f32 step the tick uses.
+        let (f, ts) = (TORQUE_LOWPASS_HZ as f64, crate::DEFAULT_TS_S as f64);
+        let alpha = 1.0 - libm::exp(-2.0 * core::f64::consts::PI * f * ts);
+        assert!(
+            (alpha - TORQUE_LOWPASS_ALPHA as f64).abs() < 1e-4,
+            "{alpha}"
+        );
+    }
 
     #[test]
     fn values_and_settings_round_trip_for_every_law() {

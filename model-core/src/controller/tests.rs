@@ -536,7 +536,7 @@ fn a_frozen_gauge_latches_gauge_and_the_drives_own_law_finishes_the_move() {
 
 #[test]
 fn a_converter_too_coarse_to_show_noise_is_not_watched_for_frozen_codes() {
-    // 12 bits over +-5000 ue: 2.4 ue a code, more than the 1 ue of noise the designs assume,
+    // 12 bits over +-5000 ue: 2.4 ue a code, more than the 0.6 ue of noise the designs assume,
     // so a live bridge may well read one code for long.
     let mut s = ControllerSettings::new(crate::table::Instruments::DEFAULT);
     s.adc.bits = 12;

@@ -36,8 +36,13 @@ gains! {
 pub const LQG_MODES: usize = beam_model::lqg::DESIGN_MODES;
 
 /// The noise the LQG observer assumes on the root strain gauge, strain: a bridge amplifier's
-/// typical floor (0.5 ue), well above a 24-bit converter's quantisation.
-pub const ASSUMED_STRAIN_NOISE: f64 = 1e-6;
+/// typical floor, well above a 24-bit converter's quantisation. 0.6 ue, a little above the
+/// simulated gauge's 0.5 ue, chosen with [`TORQUE_LOWPASS_HZ`] by sweeps of 200 beams 20 %
+/// off the model on two seeds (docs/results.md). At 1 ue the observer leaned on the encoder
+/// and left the short moves' strain at the 5 ue band's edge on beams stiffer than the model
+/// (15 deg p95 2.9 s against 1.1 s); at 0.6 ue without the low-pass, its torque at rest
+/// carried 0.5 N m RMS of noise.
+pub const ASSUMED_STRAIN_NOISE: f64 = 0.6e-6;
 
 /// The LQG law's state between ticks.
 #[cfg(feature = "observer")]
@@ -327,11 +332,29 @@ pub(super) fn observe(
     (u, sigma)
 }
 
-/// Records `u` within the drive's `limit` as the torque the observer is told was applied
-/// next tick, and returns `u`.
+/// The corner of the first-order low-pass on the observer laws' torque, Hz. The estimate
+/// carries the encoder's steps and the gauge's noise straight into the torque (the update's
+/// gain times the feedback's): at rest 0.31-0.40 N m RMS, most of it above 150 Hz, where the
+/// beam's first two modes (4-6 and 30-40 Hz) have no use for it. At 200 Hz the filter lags
+/// 10 deg at the second mode; at 100 Hz the lag cost more settle time than the noise did
+/// (docs/results.md).
+pub const TORQUE_LOWPASS_HZ: f32 = 201.9;
+
+/// The low-pass's step at the drive's 1 kHz tick, `1 - exp(-2 pi f ts)` for
+/// [`TORQUE_LOWPASS_HZ`] (a test checks it): 23/32, a value the FPU loads as an immediate.
+/// A literal would cost the 4 bytes of flash the smc-modal board does not have.
+pub const TORQUE_LOWPASS_ALPHA: f32 = 0.718_75;
+
+/// Low-passes `u` ([`TORQUE_LOWPASS_HZ`]) from the torque applied last tick, records the
+/// result within the drive's `limit` as the torque the observer is told was applied next
+/// tick, and returns it.
 #[cfg(feature = "observer")]
 #[inline(always)]
 pub(super) fn applied(law: &mut LawState, u: f32, limit: f32) -> f32 {
+    // The filter's state is the torque applied last tick: within the limit, so a saturated
+    // command does not wind the filter up.
+    let last = law.lqg.applied_nm;
+    let u = last + TORQUE_LOWPASS_ALPHA * (u - last);
     law.lqg.applied_nm = if u > limit {
         limit
     } else if u < -limit {
