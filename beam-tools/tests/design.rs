@@ -252,19 +252,24 @@ fn every_smc_i_row_switches_hard_enough_to_hold_the_stated_load() {
 #[test]
 fn optimize_writes_no_row_that_never_settles_and_says_when_pd_settles_sooner() {
     let dir = common::scratch("optimize-settle");
+    // `beam optimize --params docs/PARAMS --controller smc --table TABLE`.
+    let optimize = |params: &str, table: &std::path::Path| {
+        let params = format!("{}/../docs/{params}", env!("CARGO_MANIFEST_DIR"));
+        common::beam(&[
+            "optimize",
+            "--params",
+            &params,
+            "--controller",
+            "smc",
+            "--table",
+            table.to_str().unwrap(),
+        ])
+    };
     // The lab link (docs/lab-link/truth.toml): a light hub and a lightly damped blade with a
     // tip mass. No smc row found on it settles the paper's slew within the run (the hub
     // within 0.05 deg and the root strain within 5 ue for good): it is shown, not written.
     let table = dir.join("lab.toml");
-    let out = common::beam(&[
-        "optimize",
-        "--params",
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/lab-link/truth.toml"),
-        "--controller",
-        "smc",
-        "--table",
-        table.to_str().unwrap(),
-    ]);
+    let out = optimize("lab-link/truth.toml", &table);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
     assert!(
@@ -274,15 +279,7 @@ fn optimize_writes_no_row_that_never_settles_and_says_when_pd_settles_sooner() {
     assert!(!table.exists(), "a table was written");
     // docs/truth.toml: the row settles, later than PD 20/1, and the report says so.
     let table = dir.join("truth.toml");
-    let out = common::beam(&[
-        "optimize",
-        "--params",
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/truth.toml"),
-        "--controller",
-        "smc",
-        "--table",
-        table.to_str().unwrap(),
-    ]);
+    let out = optimize("truth.toml", &table);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

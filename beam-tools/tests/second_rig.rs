@@ -98,6 +98,18 @@ fn rig_log_filtered(from: f32, to: f32, seed: u64, tau_s: f64) -> String {
     out
 }
 
+/// The rig's columns, as its CSV logs them.
+const COLUMNS: &str = "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m";
+
+/// `beam calibrate LOGS --params PARAMS --columns COLUMNS EXTRA...`.
+fn calibrate(logs: &[&str], params: &str, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["calibrate"];
+    args.extend(logs);
+    args.extend(["--params", params, "--columns", COLUMNS]);
+    args.extend(extra);
+    common::beam(&args)
+}
+
 #[test]
 fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_both() {
     let dir = common::scratch("second-rig");
@@ -123,16 +135,7 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
         params.to_str().unwrap(),
     );
     for logs in [vec![up], vec![down], vec![up, down]] {
-        let mut args = vec!["calibrate"];
-        args.extend(&logs);
-        args.extend([
-            "--params",
-            params,
-            "--columns",
-            "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m",
-            "--json",
-        ]);
-        let v = common::json(&common::beam(&args));
+        let v = common::json(&calibrate(&logs, params, &["--json"]));
         let found = v["identified"]["clamped_hz"][0].as_f64().unwrap();
         let off = found / want - 1.0;
         eprintln!(
@@ -149,18 +152,7 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
     // parameter file. Calibrated on the step up alone, the step down drifted 3.4 deg (the
     // friction taken the same both ways); without the offset read at rest, 6.7 deg.
     let found = dir.join("both.toml");
-    let columns = "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m";
-    let out = common::beam(&[
-        "calibrate",
-        up,
-        down,
-        "--params",
-        params,
-        "--columns",
-        columns,
-        "--out",
-        found.to_str().unwrap(),
-    ]);
+    let out = calibrate(&[up, down], params, &["--out", found.to_str().unwrap()]);
     assert!(
         out.status.success(),
         "{}",
@@ -169,13 +161,8 @@ fn the_default_calibration_finds_the_second_rigs_first_mode_on_each_step_and_on_
     for (name, from, to, seed) in [("up2", 0.1, 0.2, 5), ("down2", 0.2, 0.1, 6)] {
         let held = dir.join(format!("{name}.csv"));
         std::fs::write(&held, rig_log(from, to, seed)).unwrap();
-        let (tip, hub) = common::replay_errors(&held, &found, columns);
-        eprintln!(
-            "held out ({name}, from up and down): tip {:.1} % RMS, open-loop hub {hub:.2} deg RMS",
-            100.0 * tip
-        );
-        assert!(tip < 0.15, "{name}: tip {tip}");
-        assert!(hub < 2.0, "{name}: open-loop hub {hub} deg");
+        let what = format!("{name}, from up and down");
+        common::assert_held_out(&what, "tip", &held, &found, COLUMNS);
     }
     let file = std::fs::read_to_string(&found).unwrap();
     let key = |k: &str| -> f64 {
@@ -213,14 +200,7 @@ fn a_log_cut_inside_its_move_is_refused_naming_that() {
     let t = truth();
     let params = dir.join("truth.toml");
     std::fs::write(&params, params_file::render(&t, "the rig's")).unwrap();
-    let out = common::beam(&[
-        "calibrate",
-        file.to_str().unwrap(),
-        "--params",
-        params.to_str().unwrap(),
-        "--columns",
-        "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m",
-    ]);
+    let out = calibrate(&[file.to_str().unwrap()], params.to_str().unwrap(), &[]);
     let err = String::from_utf8_lossy(&out.stderr);
     // Refused, and for that reason, not the tip mass's or the gauge's.
     assert!(!out.status.success(), "{err}");
@@ -239,17 +219,10 @@ fn the_logs_ringing_is_reported_and_holds_the_model_to_it() {
     let params = dir.join("guess.toml");
     std::fs::write(&params, params_file::render(&guess, "10 % thick")).unwrap();
     let run = |extra: &[&str]| {
-        let mut args = vec![
-            "calibrate",
-            up.to_str().unwrap(),
-            "--params",
-            params.to_str().unwrap(),
-            "--columns",
-            "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m",
-            "--json",
-        ];
-        args.extend(extra);
-        common::json(&common::beam(&args))
+        let mut extra = extra.to_vec();
+        extra.push("--json");
+        let (up, params) = (up.to_str().unwrap(), params.to_str().unwrap());
+        common::json(&calibrate(&[up], params, &extra))
     };
     let hz = |v: &serde_json::Value, who: &str| v["ringing"][0][who]["hz"].as_f64().unwrap();
     // The default: the model rings where the log does, and both are in the summary.
@@ -315,15 +288,11 @@ fn a_tip_sensor_behind_a_filter_keeps_the_first_mode_and_the_ringing() {
     std::fs::write(&params, params_file::render(&guess, "10 % thick")).unwrap();
     let up = dir.join("up.csv");
     std::fs::write(&up, rig_log_filtered(0.0, 0.1, 4, 0.056)).unwrap();
-    let v = common::json(&common::beam(&[
-        "calibrate",
-        up.to_str().unwrap(),
-        "--params",
+    let v = common::json(&calibrate(
+        &[up.to_str().unwrap()],
         params.to_str().unwrap(),
-        "--columns",
-        "t=time:s,torque=volts_torque:nm,theta=hub:rad,tip=tip:m",
-        "--json",
-    ]));
+        &["--json"],
+    ));
     let found = v["identified"]["clamped_hz"][0].as_f64().unwrap();
     let ring = &v["ringing"][0];
     let (log, model) = (

@@ -143,12 +143,6 @@ fn a_raw_train_of_steps_is_cut_calibrated_step_by_step_and_predicts_held_out_ste
     for (target, seed, what) in [(0.2, 2, "up 0.2 rad"), (-0.25, 3, "down 0.25 rad")] {
         let held = dir.join(format!("held-{seed}.csv"));
         std::fs::write(&held, step_log(&[(0.4, target)], 2.0, seed)).unwrap();
-        let (strain, hub) = common::replay_errors(&held, &found, COLUMNS);
-        eprintln!(
-            "held out, {what}: strain {:.1} % RMS, open-loop hub {hub:.2} deg RMS",
-            100.0 * strain
-        );
-        assert!(strain < 0.15, "{what}: strain {strain}");
-        assert!(hub < 2.0, "{what}: open-loop hub {hub} deg");
+        common::assert_held_out(what, "strain", &held, &found, COLUMNS);
     }
 }

@@ -145,3 +145,22 @@ pub fn replay_errors(log: &std::path::Path, params: &std::path::Path, columns: &
         r["hub_rms_err_deg"].as_f64().unwrap(),
     )
 }
+
+/// Holds a held-out log to the calibration's goals: replayed on `params`, the beam signal
+/// (`signal`: "tip", "strain") within 15 % RMS with the hub prescribed, and the hub, driven
+/// open loop by the logged torque, within 2 deg RMS. `what` names the case.
+pub fn assert_held_out(
+    what: &str,
+    signal: &str,
+    log: &std::path::Path,
+    params: &std::path::Path,
+    columns: &str,
+) {
+    let (beam, hub) = replay_errors(log, params, columns);
+    eprintln!(
+        "held out, {what}: {signal} {:.1} % RMS, open-loop hub {hub:.2} deg RMS",
+        100.0 * beam
+    );
+    assert!(beam < 0.15, "{what}: {signal} {beam}");
+    assert!(hub < 2.0, "{what}: open-loop hub {hub} deg");
+}
