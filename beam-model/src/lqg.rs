@@ -103,31 +103,36 @@ pub struct LqgDesign {
     pub k: [f32; MAX_STATES],
     /// The integral's gain, N m/(rad s).
     pub ki: f32,
-    /// The reference beam: the modes of a beam whose hub follows the reference exactly (the
-    /// clamped-hub dynamics `Mqq q'' + Cq q' + Kqq q = -h theta_r''`), sampled: state
-    /// `[q_0..q_3, q_0'..q_3']`, `r+ = ref_ad r + ref_bd theta_r''`. A beam bent and swinging
-    /// as the reference itself makes it is not an error for the feedback.
+    /// The reference beam: the modes of the beam as the reference's torque drives it, its
+    /// hub free to turn (the hub-free dynamics `Mf q'' + Cq q' + Kqq q = -h theta_r''`, with
+    /// `Mf = Mqq - h h' / Mtt`), sampled: state `[q_0, q_1, q_0', q_1']`, `r+ = ref_ad r +
+    /// ref_bd theta_r''`. The reference's hub angle `theta_r` is the rigid body's; the beam
+    /// swinging on it turns the hub by `ref_hub . q` about it (the beam's angular momentum
+    /// about the hub is the rigid body's). The torque `Mtt theta_r''` drives the whole beam
+    /// along this, so a reference shaped on the hub-free modes leaves the reference beam at
+    /// rest when it ends. A beam bent and swinging as the reference itself makes it is not an
+    /// error for the feedback.
     pub ref_ad: [[f32; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
     /// The reference beam's input column, per rad/s^2.
     pub ref_bd: [f32; 2 * DESIGN_MODES],
-    /// The feedforward that makes the hub follow the reference with the reference beam on
-    /// it: `tau_ff = Jeff theta_r'' + ff_q . q + ff_dq . q' + c_v theta_r'`, where
-    /// `ff_q = -h' Mqq^-1 Kqq` and `ff_dq = -h' Mqq^-1 Cq`.
-    pub ff_q: [f32; DESIGN_MODES],
-    /// See `ff_q`.
-    pub ff_dq: [f32; DESIGN_MODES],
+    /// The hub's turn about the rigid reference per modal coordinate, `-h / Mtt`: the
+    /// reference state's hub angle is `theta_r + ref_hub . q`, its rate `theta_r' + ref_hub .
+    /// q'`.
+    pub ref_hub: [f32; DESIGN_MODES],
     /// The centrifugal term of the reference beam, per (rad/s)^2 of hub rate and per tick:
-    /// `ts Mqq^-1 S`, added to the reference beam's rates as `theta_r'^2 ref_s q`. At the
+    /// `ts Mf^-1 S`, added to the reference beam's rates as `theta'^2 ref_s q`. At the
     /// speeds of a fast slew it changes the beam's stiffness by a fifth.
     pub ref_s: [[f32; DESIGN_MODES]; DESIGN_MODES],
     /// The centrifugal term in the observer's prediction, per (rad/s)^2 of hub rate and per
     /// tick: `ts M^-1 [0; S]`, the hub's and the modes' accelerations from `w^2 S q`; row 0 is
     /// the hub's, row `1 + i` mode i's.
     pub obs_s: [[f32; DESIGN_MODES]; 1 + DESIGN_MODES],
-    /// The centrifugal term's feedforward, `h' Mqq^-1 S`: `tau_ff += theta_r'^2 ff_s . q`.
-    pub ff_s: [f32; DESIGN_MODES],
-    /// The effective inertia Jeff = Mtt - h' Mqq^-1 h, kg m^2.
+    /// The effective inertia Jeff = Mtt - h' Mqq^-1 h, kg m^2: the hub's with the beam's
+    /// modes free (the sliding-mode laws' scale).
     pub jeff: f32,
+    /// The rigid-body inertia Mtt, kg m^2: the feedforward `Mtt theta_r'' + c_v (theta_r' +
+    /// ref_hub . q')` turns the hub, the beam and the payload along the reference.
+    pub mtt: f32,
     /// The viscous friction c_v, N m s/rad.
     pub viscous: f32,
     /// The torque limit, N m: the observer is fed the torque the drive could apply.
@@ -145,12 +150,11 @@ impl LqgDesign {
         ki: 0.0,
         ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
         ref_bd: [0.0; 2 * DESIGN_MODES],
-        ff_q: [0.0; DESIGN_MODES],
-        ff_dq: [0.0; DESIGN_MODES],
+        ref_hub: [0.0; DESIGN_MODES],
         ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
         obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
-        ff_s: [0.0; DESIGN_MODES],
         jeff: 0.0,
+        mtt: 0.0,
         viscous: 0.0,
         torque_limit_nm: 0.0,
     };
@@ -184,12 +188,11 @@ impl LqgDesign {
             ki: m(a.ki, b.ki),
             ref_ad: rows(&a.ref_ad, &b.ref_ad, m),
             ref_bd: each(&a.ref_bd, &b.ref_bd, m),
-            ff_q: each(&a.ff_q, &b.ff_q, m),
-            ff_dq: each(&a.ff_dq, &b.ff_dq, m),
+            ref_hub: each(&a.ref_hub, &b.ref_hub, m),
             ref_s: rows(&a.ref_s, &b.ref_s, m),
             obs_s: rows(&a.obs_s, &b.obs_s, m),
-            ff_s: each(&a.ff_s, &b.ff_s, m),
             jeff: m(a.jeff, b.jeff),
+            mtt: m(a.mtt, b.mtt),
             viscous: m(a.viscous, b.viscous),
             torque_limit_nm: m(a.torque_limit_nm, b.torque_limit_nm),
         }
@@ -490,6 +493,7 @@ pub fn design<const N: usize>(
     let mut out = LqgDesign {
         ki: kfull[nx] as f32,
         jeff: model.jeff as f32,
+        mtt: model.mtt as f32,
         viscous: model.beam.params().viscous_nms as f32,
         torque_limit_nm: model.beam.params().torque_limit_nm as f32,
         ..LqgDesign::ZERO
@@ -630,17 +634,20 @@ fn kalman<const N: usize>(
     Ok((pct, sinv))
 }
 
-/// The reference beam (the beam driven by the reference's hub acceleration), sampled, and the
-/// feedforward's rows, into `out`.
+/// The reference beam (the hub-free beam driven by the reference's rigid acceleration),
+/// sampled, into `out`. `minv` is the mass matrix's inverse, whose modes' block is `Mf^-1`.
 fn reference_beam<const N: usize>(
     model: &ModalModel<N>,
     minv: &Mat,
     ts_s: f64,
     out: &mut LqgDesign,
 ) {
-    // The reference beam, sampled by Van Loan as above: z = [q; q'], z' = [[0, I], [-Mqq^-1
-    // Kqq, -Mqq^-1 Cq]] z + [0; -Mqq^-1 h] a.
-    let mi = &model.mqq_inv;
+    // The torque Mtt a turns the rigid body by a; what is left of the hub's equation, Mtt
+    // theta_f'' + h' q'' = 0 (the viscous term on theta_f' is the feedforward's), makes the
+    // hub turn by theta_f = -h' q / Mtt about it, and the modes' equation becomes Mf q'' + Cq
+    // q' + Kqq q = -h a. Sampled by Van Loan as above: z = [q; q'], z' = [[0, I], [-Mf^-1
+    // Kqq, -Mf^-1 Cq]] z + [0; -Mf^-1 h] a.
+    let mf = |i: usize, l: usize| minv[1 + i][1 + l];
     let mut big = ZERO;
     let n2 = 2 * N;
     for i in 0..N {
@@ -648,13 +655,13 @@ fn reference_beam<const N: usize>(
         for j in 0..N {
             let (mut mk, mut mc) = (0.0, 0.0);
             for l in 0..N {
-                mk += mi[i][l] * model.kqq[l][j];
-                mc += mi[i][l] * model.cq[l][j];
+                mk += mf(i, l) * model.kqq[l][j];
+                mc += mf(i, l) * model.cq[l][j];
             }
             big[N + i][j] = -mk * ts_s;
             big[N + i][N + j] = -mc * ts_s;
         }
-        big[N + i][n2] = -(0..N).map(|l| mi[i][l] * model.h[l]).sum::<f64>() * ts_s;
+        big[N + i][n2] = -(0..N).map(|l| mf(i, l) * model.h[l]).sum::<f64>() * ts_s;
     }
     let e_ref = expm(&big, n2 + 1);
     let rat = |i: usize| if i < N { i } else { i - N + DESIGN_MODES };
@@ -664,17 +671,10 @@ fn reference_beam<const N: usize>(
         }
         out.ref_bd[rat(i)] = e_ref[i][n2] as f32;
     }
-    // h' Mqq^-1, then the feedforward rows.
-    let hm: [f64; DESIGN_MODES] = core::array::from_fn(|j| {
-        if j < N {
-            (0..N).map(|l| model.h[l] * mi[l][j]).sum()
-        } else {
-            0.0
-        }
-    });
     for i in 0..N {
+        out.ref_hub[i] = (-model.h[i] / model.mtt) as f32;
         for j in 0..N {
-            out.ref_s[i][j] = ((0..N).map(|l| mi[i][l] * model.s[l][j]).sum::<f64>() * ts_s) as f32;
+            out.ref_s[i][j] = ((0..N).map(|l| mf(i, l) * model.s[l][j]).sum::<f64>() * ts_s) as f32;
         }
     }
     for i in 0..=N {
@@ -682,11 +682,6 @@ fn reference_beam<const N: usize>(
             out.obs_s[i][j] =
                 ((0..N).map(|l| minv[i][1 + l] * model.s[l][j]).sum::<f64>() * ts_s) as f32;
         }
-    }
-    for j in 0..N {
-        out.ff_s[j] = (0..N).map(|l| hm[l] * model.s[l][j]).sum::<f64>() as f32;
-        out.ff_q[j] = -(0..N).map(|l| hm[l] * model.kqq[l][j]).sum::<f64>() as f32;
-        out.ff_dq[j] = -(0..N).map(|l| hm[l] * model.cq[l][j]).sum::<f64>() as f32;
     }
 }
 

@@ -140,6 +140,10 @@ pub struct Metrics {
     pub tip_settle_0_5deg_s: Option<f64>,
     /// When the validity guard stopped the run, s.
     pub breakdown_at_s: Option<f64>,
+    /// The drive latched a fault during the run (a sensor, the strain trip, ...): a sweep
+    /// counts these. Not in the JSON, whose `faults` names them (`SimResult::faults`).
+    #[serde(skip)]
+    pub faulted: bool,
     /// With a load: the largest |theta - theta_final| while it was applied, deg.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hold_max_dev_deg: Option<f64>,
@@ -176,6 +180,7 @@ pub fn metrics_with(run: &SimResult, settle: &SettleSpec) -> Metrics {
     if let Some((t, _)) = &run.breakdown {
         return Metrics {
             breakdown_at_s: Some(*t),
+            faulted: !run.faults.is_empty(),
             ..Metrics::default()
         };
     }
@@ -260,6 +265,7 @@ pub fn metrics_with(run: &SimResult, settle: &SettleSpec) -> Metrics {
             .flatten(),
         tip_settle_0_5deg_s: tip_settle,
         breakdown_at_s: None,
+        faulted: !run.faults.is_empty(),
         hold_max_dev_deg,
         hold_recover_s,
     }

@@ -106,7 +106,12 @@ fn observed_or_fed(
         estimates: vec![],
     };
     let run = run_with(Plant::new(p), &mut rec, &reference, &opts).unwrap();
-    assert!(run.breakdown.is_none() && run.faults.is_empty());
+    assert!(
+        run.breakdown.is_none() && run.faults.is_empty(),
+        "{:?} {:?}",
+        run.breakdown,
+        run.faults
+    );
     (run, rec.estimates)
 }
 
@@ -340,18 +345,25 @@ fn the_law_fed_the_true_state_acts_on_the_plants_state() {
             angle = angle.max((x[0] as f64 - s.theta).abs());
             omega = omega.max((x[rate] as f64 - s.omega).abs());
         }
-        (angle.to_degrees(), omega)
+        // The hub's largest change of rate over a tick.
+        let step = run
+            .samples
+            .windows(2)
+            .map(|w| (w[1].omega - w[0].omega).abs())
+            .fold(0.0, f64::max);
+        (angle.to_degrees(), omega, step)
     };
-    let (fed_angle, fed_omega) = hub_errors(true);
-    let (obs_angle, obs_omega) = hub_errors(false);
+    let (fed_angle, fed_omega, step) = hub_errors(true);
+    let (obs_angle, obs_omega, _) = hub_errors(false);
     eprintln!(
         "largest hub error: fed {fed_angle:.2e} deg, {fed_omega:.2e} rad/s; \
-         observed {obs_angle:.2e} deg, {obs_omega:.2e} rad/s"
+         observed {obs_angle:.2e} deg, {obs_omega:.2e} rad/s; hub rate step {step:.2e} rad/s"
     );
-    // One tick's prediction on a model a fifth off errs by what the model's acceleration
-    // misses over a tick: a fifth of the move's few hundred rad/s^2 over 1 ms is under
-    // 0.1 rad/s, and the angle by half a tick's worth of that, well under 0.01 deg ...
-    assert!(fed_angle < 0.01 && fed_omega < 0.1);
+    // One tick's prediction errs by what the model's acceleration misses over a tick: less
+    // than the hub's largest change of rate in a tick (the model's Jm is a fifth off, and its
+    // two modes leave the third's share of the hub's acceleration out; measured, 74 % of
+    // that change), and the angle by half a tick's worth of that, well under 0.01 deg ...
+    assert!(fed_angle < 0.01 && fed_omega < step);
     // ... where the observer, reading an encoder step of 0.022 deg and the gauge, is off by
     // several times more.
     assert!(obs_angle > 5.0 * fed_angle && obs_omega > 5.0 * fed_omega);

@@ -50,9 +50,9 @@ pub struct Limits {
     /// Viscous friction the plan allows for, N m s/rad.
     pub viscous_nms: f32,
     /// Shortest segment the planner chooses when it picks the times, s (0, a negative value
-    /// or NaN: none; `f32::max` passes over NaN). For a law
-    /// that bends a reference beam through the move ([`Law::min_move_periods`]), a move
-    /// much shorter than the beam's first period asks for more torque than the limit.
+    /// or NaN: none; `f32::max` passes over NaN). For a law that bends a reference beam
+    /// through the move ([`Law::min_move_periods`]), a move much shorter than the beam's
+    /// first period settles later over beams off the model.
     pub min_segment_s: f32,
 }
 

@@ -329,6 +329,10 @@ pub struct LawSummary {
     pub breakdowns: usize,
     /// Cases that stayed in range but had not settled when the run ended.
     pub unsettled: usize,
+    /// Cases where the drive latched a fault (a sensor, the strain trip), breakdowns
+    /// included: a gauge taken for failed on a beam that is only off the model is a false
+    /// alarm.
+    pub faulted: usize,
     /// [`SUMMARY`]'s metrics, by name.
     pub metrics: Vec<(&'static str, Option<Spread>)>,
 }
@@ -344,6 +348,10 @@ impl LawSummary {
             unsettled: cases
                 .iter()
                 .filter(|c| pick(c).and_then(settle_or_never) == Some(f64::INFINITY))
+                .count(),
+            faulted: cases
+                .iter()
+                .filter(|c| pick(c).is_some_and(|m| m.faulted))
                 .count(),
             metrics: SUMMARY
                 .iter()

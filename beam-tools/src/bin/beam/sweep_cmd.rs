@@ -367,6 +367,7 @@ fn print_json(
     put("settle_band", json!(a.settle.spec().ok()));
     put("breakdowns", json!(controller.breakdowns));
     put("unsettled", json!(controller.unsettled));
+    put("faulted", json!(controller.faulted));
     put("baseline_breakdowns", json!(baseline.breakdowns));
     put("baseline_unsettled", json!(baseline.unsettled));
     put("metrics", json!(obj(controller)));
@@ -420,6 +421,10 @@ fn print_text(
         a.settle.settle_strain_ue,
         controller.unsettled,
         baseline.unsettled
+    );
+    println!(
+        "  faults latched (a sensor, the strain trip; breakdowns included): {kind} {}, pd {}",
+        controller.faulted, baseline.faulted
     );
     if let Some(p) = peer {
         println!(
