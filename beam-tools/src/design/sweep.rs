@@ -48,6 +48,11 @@ pub struct SweepSpec {
     pub instruments: Instruments,
     /// Feed the controller's observer law the true state ([`SimOptions::true_state`]).
     pub true_state: bool,
+    /// Build each case's drive on the drawn beam instead of the nominal one at the drawn
+    /// payload (its laws' designs, its planner's inertia), with the shapers' frequencies
+    /// scaled by the drawn beam's first hub-free frequency against the nominal's: what
+    /// identifying the beam could at most give.
+    pub drive_knows_beam: bool,
 }
 
 /// The simulated time a sweep runs by default, s: settle times of several seconds are common
@@ -194,6 +199,9 @@ struct CaseBeams<const N: usize> {
     perturbation: Perturbation,
     plant: ModalModel<N>,
     drive: ModalModel<N>,
+    /// The factor on the shapers' frequencies: 1, or the drive's first hub-free frequency
+    /// against the nominal beam's at the payload ([`SweepSpec::drive_knows_beam`]).
+    shaper_scale: f32,
 }
 
 impl<const N: usize> CaseBeams<N> {
@@ -202,19 +210,32 @@ impl<const N: usize> CaseBeams<N> {
         let build = |params: BeamParams| -> Result<ModalModel<N>, SimError> {
             Ok(ModalModel::try_build(&Beam::try_build(params)?)?)
         };
+        let plant = build(p.apply(nominal))?;
+        let at_payload = build(BeamParams {
+            tip_mass_kg: p.payload_kg,
+            ..*nominal
+        })?;
+        let (drive, shaper_scale) = if spec.drive_knows_beam {
+            let scale = plant.pinned_hz[0] / at_payload.pinned_hz[0];
+            (plant, scale as f32)
+        } else {
+            (at_payload, 1.0)
+        };
         Ok(Self {
             index,
             perturbation: p,
-            plant: build(p.apply(nominal))?,
-            drive: build(BeamParams {
-                tip_mass_kg: p.payload_kg,
-                ..*nominal
-            })?,
+            plant,
+            drive,
+            shaper_scale,
         })
     }
 
     /// `law` with its shaper through the case's move, sensors seeded per case.
     fn run(&self, spec: &SweepSpec, (law, shaper): Tuned) -> Result<SimResult, SimError> {
+        let shaper = Shaper {
+            freq_hz: shaper.freq_hz * self.shaper_scale,
+            ..shaper
+        };
         let opts = SimOptions {
             sensors: SensorConfig {
                 seed: spec.seed ^ self.index as u64,
@@ -389,6 +410,48 @@ mod tests {
     }
 
     #[test]
+    fn a_drive_that_knows_the_beam_is_built_on_the_drawn_beam() {
+        let spec = SweepSpec {
+            cases: 4,
+            spread: 0.2,
+            damping_ratio: None,
+            payload_max_kg: 0.05,
+            seed: 5,
+            coulomb_max_nm: 0.0,
+            moves_deg: vec![],
+            shortest: false,
+            move_time_s: None,
+            duration_s: DEFAULT_DURATION_S,
+            settle: SettleSpec::default(),
+            instruments: Instruments::DEFAULT,
+            true_state: false,
+            drive_knows_beam: true,
+        };
+        let nominal = BeamParams::aluminium();
+        let unknown = SweepSpec {
+            drive_knows_beam: false,
+            ..spec.clone()
+        };
+        for i in 0..spec.cases {
+            let knows = CaseBeams::<2>::draw(&nominal, &spec, i).unwrap();
+            let not = CaseBeams::<2>::draw(&nominal, &unknown, i).unwrap();
+            // The same beam is drawn; one drive is built on it, the other on the nominal
+            // beam at its payload.
+            assert_eq!((knows.plant, not.plant), (not.plant, knows.drive));
+            assert_ne!(not.drive, not.plant);
+            assert_eq!(not.shaper_scale, 1.0);
+            let f = |m: &ModalModel<2>| m.pinned_hz[0];
+            let scale = (f(&knows.drive) / f(&not.drive)) as f32;
+            assert_eq!(knows.shaper_scale, scale);
+            // A stiffer or lighter beam rings faster: the scale follows sqrt(EI / density)
+            // within the payload's and Jm's share.
+            let p = knows.perturbation;
+            let ideal = (p.ei / p.rho).sqrt() as f32;
+            assert!((scale / ideal - 1.0).abs() < 0.1, "{scale} against {ideal}");
+        }
+    }
+
+    #[test]
     fn draws_are_reproducible_and_within_the_spread() {
         let spec = SweepSpec {
             cases: 10,
@@ -404,6 +467,7 @@ mod tests {
             settle: SettleSpec::default(),
             instruments: Instruments::DEFAULT,
             true_state: false,
+            drive_knows_beam: false,
         };
         let with_more = SweepSpec {
             coulomb_max_nm: 0.05,

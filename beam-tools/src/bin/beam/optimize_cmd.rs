@@ -438,6 +438,7 @@ fn scenarios(
         settle: Default::default(),
         instruments: instruments(a)?,
         true_state: false,
+        drive_knows_beam: false,
     };
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
     use rand::Rng;

@@ -77,6 +77,12 @@ pub struct SweepArgs {
     /// the instruments as always).
     #[arg(long)]
     true_state: bool,
+    /// Build each case's drive on the drawn beam instead of the nominal one (the laws'
+    /// designs, the planner's inertia; the shapers' frequencies scaled by the drawn beam's
+    /// first hub-free frequency against the nominal's): what identifying each beam could at
+    /// most give. The PD baseline and the peer get the same drive.
+    #[arg(long)]
+    drive_knows_beam: bool,
     /// Write one row per case.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -134,6 +140,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         settle: a.settle.spec()?,
         instruments: table.map_or(model_core::Instruments::DEFAULT, |t| t.drive.instruments),
         true_state: a.true_state,
+        drive_knows_beam: a.drive_knows_beam,
     };
     if let Some(index) = a.case {
         return run_case(a, &nominal, &spec, &law_at, index);
@@ -381,6 +388,9 @@ fn print_json(
     if a.coulomb_max > 0.0 {
         put("coulomb_max_nm", json!(a.coulomb_max));
     }
+    if a.drive_knows_beam {
+        put("drive_knows_beam", json!(true));
+    }
     if !a.moves.is_empty() {
         put("moves_deg", json!(a.moves));
     }
@@ -410,6 +420,9 @@ fn print_text(
         a.spread * 100.0,
         a.payload_max
     );
+    if a.drive_knows_beam {
+        println!("  each drive built on its drawn beam (--drive-knows-beam)");
+    }
     println!(
         "  model breakdowns: {kind} {}, pd {} (metrics below are over the runs that stayed in range)",
         controller.breakdowns, baseline.breakdowns
