@@ -725,3 +725,43 @@ fn a_reader_that_closes_the_pipe_early_ends_the_run_quietly() {
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(out.status.code(), Some(141), "{err}");
 }
+
+/// The softest, heaviest kind of beam of the README's sweep (case 108 of `--seed 2`: EI
+/// 19 % low, density 18 % high, 11 g) under lqg through its shortest 180 deg move: with the
+/// integral wound up through the move, the drive bent it past the strain trip and out of
+/// the model; the integral now holds at speed (`law::INTEGRAL_MAX_RATE_RAD_S`), and the
+/// beam stays within the 2000 ue the moves are held to and settles.
+#[test]
+fn lqg_brings_a_soft_heavy_beam_through_its_fastest_half_turn() {
+    let v = json(&beam(&[
+        "sweep",
+        "--controller",
+        "lqg",
+        "--moves",
+        "180",
+        "--shortest",
+        "--cases",
+        "200",
+        "--coulomb-max",
+        "0.05",
+        "--damping-ratio",
+        "0.005,0.02",
+        "--no-peer",
+        "--duration",
+        "4",
+        "--seed",
+        "2",
+        "--case",
+        "108",
+        "--json",
+    ]));
+    let drawn = &v["draw"];
+    assert!(
+        drawn["ei_scale"].as_f64().unwrap() < 0.82 && drawn["rho_scale"].as_f64().unwrap() > 1.15,
+        "{drawn}"
+    );
+    assert!(v["breakdown_at_s"].is_null(), "{v}");
+    assert_eq!(v["faults"], "none");
+    assert!(v["peak_root_strain_ue"].as_f64().unwrap() < 2000.0, "{v}");
+    assert!(v["settle_s"].as_f64().is_some_and(|s| s < 4.0), "{v}");
+}

@@ -35,7 +35,10 @@ mod smc_strain;
 
 #[cfg(feature = "observer")]
 pub use lqg::ObserverState;
-pub use lqg::{LqgGains, ASSUMED_STRAIN_NOISE, LQG_MODES, TORQUE_LOWPASS_ALPHA, TORQUE_LOWPASS_HZ};
+pub use lqg::{
+    LqgGains, ASSUMED_STRAIN_NOISE, INTEGRAL_MAX_RATE_RAD_S, LQG_MODES, TORQUE_LOWPASS_ALPHA,
+    TORQUE_LOWPASS_HZ,
+};
 pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
 pub use smc::SmcGains;
