@@ -751,6 +751,66 @@ mod tests {
     }
 
     #[test]
+    fn the_reference_beam_is_the_beam_the_rigid_torque_drives() {
+        // The torque Mtt a on the whole (hub-free) model moves it as the rigid body moves
+        // under a, plus the reference beam swinging on it: the hub at theta_r + ref_hub . q.
+        // Checked against the sampled torque-driven model (`sampled_with`, the observer's),
+        // through a bang-coast-bang acceleration held over each tick, and after it.
+        let m: ModalModel<2> = ModalModel::try_build(
+            &Beam::try_build(BeamParams {
+                viscous_nms: 0.0,
+                ..BeamParams::aluminium()
+            })
+            .unwrap(),
+        )
+        .unwrap();
+        let ts = 1e-3;
+        let minv = mass_inverse(&m).unwrap();
+        let (ad, bd) = sampled_with(&m, &minv, ts).unwrap();
+        let mut d = LqgDesign::ZERO;
+        reference_beam(&m, &minv, ts, &mut d);
+        let (mut x, mut z) = ([0.0f64; 6], [0.0f64; 4]);
+        let (mut theta, mut omega) = (0.0f64, 0.0f64);
+        let mut worst = [0.0f64; 2];
+        let mut peak = [0.0f64; 2];
+        for k in 0..400 {
+            let a = match k {
+                0..60 => 200.0,
+                60..120 => 0.0,
+                120..180 => -200.0,
+                _ => 0.0,
+            };
+            let u = m.mtt * a;
+            x = core::array::from_fn(|i| (0..6).map(|j| ad[i][j] * x[j]).sum::<f64>() + bd[i] * u);
+            z = core::array::from_fn(|i| {
+                (0..4).map(|j| d.ref_ad[i][j] as f64 * z[j]).sum::<f64>() + d.ref_bd[i] as f64 * a
+            });
+            theta += omega * ts + 0.5 * a * ts * ts;
+            omega += a * ts;
+            let hub = |q: &[f64]| (0..2).map(|i| d.ref_hub[i] as f64 * q[i]).sum::<f64>();
+            let want = [
+                theta + hub(&z[..2]),
+                z[0],
+                z[1],
+                omega + hub(&z[2..]),
+                z[2],
+                z[3],
+            ];
+            for i in 0..6 {
+                // Angles and modes, then rates.
+                let g = usize::from(i >= 3);
+                worst[g] = worst[g].max((x[i] - want[i]).abs());
+                peak[g] = peak[g].max(x[i].abs());
+            }
+        }
+        // The beam swung: its modes moved the hub by more than the match's error.
+        assert!(z.iter().any(|v| v.abs() > 1e-6), "{z:?}");
+        // Equal up to the f32 rounding of the reference beam's coefficients.
+        assert!(worst[0] < 1e-5 * peak[0], "{worst:?} of {peak:?}");
+        assert!(worst[1] < 1e-5 * peak[1], "{worst:?} of {peak:?}");
+    }
+
+    #[test]
     fn the_closed_loop_and_the_observer_are_stable() {
         let m = model();
         let w = LqgWeights {
