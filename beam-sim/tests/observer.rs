@@ -302,7 +302,8 @@ fn what_the_observer_loses_after_the_move_by_sensor_and_by_mode() {
         .collect();
     // The model it runs: the beam's EI a fifth off the observer's, the shipped instruments.
     // A model that far off costs more than the instruments do (measured 2026-11-26, with
-    // 0.6 ue of gauge noise assumed: 0.98 and 1.83 ue RMS, against 0.82 on its own model).
+    // 0.6 ue of gauge noise assumed and the reference beam swung by the torque: 1.08 and
+    // 1.86 ue RMS, against 0.86 on its own model).
     for ei in [1.2, 0.8] {
         let plant = BeamParams {
             ei_nm2: ei * aluminium.ei_nm2,
