@@ -57,6 +57,14 @@ pub struct LqgWeights {
     /// Standard deviation of the disturbance torque the observer assumes, N m: larger trusts
     /// the sensors more (a faster observer).
     pub sigma_nm: f64,
+    /// The regulator while the reference moves: one designed on the same weights so that every
+    /// closed-loop pole of the nominal model lies left of `-move_rate`, 1/s (an LQR with a
+    /// prescribed degree of stability), the loop's own regulator `K` at rest. 0: `K`
+    /// throughout ([`LqgDesign::k_move`] is zero).
+    pub move_rate: f64,
+    /// Whether the observer reads the encoder at rest as the count's interval
+    /// ([`LqgDesign::count_interval`]), not as a noisy point.
+    pub count_interval: bool,
 }
 
 /// What the sensors resolve, for the observer's measurement noise.
@@ -64,6 +72,10 @@ pub struct LqgWeights {
 pub struct SensorNoise {
     /// Hub angle noise (the encoder's quantisation, step / sqrt(12)), rad.
     pub theta_rad: f64,
+    /// The encoder's count as the drive reads it, rad, negative when the counter counts down
+    /// as the hub turns positive: a reading `theta` says the hub is between `theta` and
+    /// `theta + encoder_step_rad` (0: not known).
+    pub encoder_step_rad: f64,
     /// Root strain noise (the converter's), strain.
     pub strain: f64,
 }
@@ -101,6 +113,15 @@ pub struct LqgDesign {
     pub l: [[f32; 2]; MAX_STATES],
     /// The state-feedback gain, N m per state unit.
     pub k: [f32; MAX_STATES],
+    /// What the regulator adds while the reference moves ([`LqgWeights::move_rate`]), N m per
+    /// state unit: the loop's gain is `k + w k_move`, `w` 1 while the reference moves and
+    /// fading after it stops (the tick's). Zero for a single regulator.
+    pub k_move: [f32; MAX_STATES],
+    /// The encoder's count interval about a reading, rad, `[min(step, 0), max(step, 0)]`: at
+    /// rest the observer corrects its angle only by how far its prediction lies outside
+    /// `[theta + lo, theta + hi]` ([`LqgWeights::count_interval`]); `[0, 0]` reads the angle as
+    /// a point.
+    pub count_interval: [f32; 2],
     /// The integral's gain, N m/(rad s).
     pub ki: f32,
     /// The reference beam: the modes of the beam as the reference's torque drives it, its
@@ -147,6 +168,8 @@ impl LqgDesign {
         strain_coef: [0.0; DESIGN_MODES],
         l: [[0.0; 2]; MAX_STATES],
         k: [0.0; MAX_STATES],
+        k_move: [0.0; MAX_STATES],
+        count_interval: [0.0; 2],
         ki: 0.0,
         ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
         ref_bd: [0.0; 2 * DESIGN_MODES],
@@ -185,6 +208,8 @@ impl LqgDesign {
             strain_coef: each(&a.strain_coef, &b.strain_coef, m),
             l: rows(&a.l, &b.l, m),
             k: each(&a.k, &b.k, m),
+            k_move: each(&a.k_move, &b.k_move, m),
+            count_interval: each(&a.count_interval, &b.count_interval, m),
             ki: m(a.ki, b.ki),
             ref_ad: rows(&a.ref_ad, &b.ref_ad, m),
             ref_bd: each(&a.ref_bd, &b.ref_bd, m),
@@ -356,7 +381,12 @@ impl LqgWeights {
     fn check(&self) -> Result<(), LqgError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
         let nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        if pos(self.kp) && pos(self.kd) && nonneg(self.ki) && nonneg(self.kq) && pos(self.sigma_nm)
+        if pos(self.kp)
+            && pos(self.kd)
+            && nonneg(self.ki)
+            && nonneg(self.kq)
+            && pos(self.sigma_nm)
+            && nonneg(self.move_rate)
         {
             Ok(())
         } else {
@@ -486,7 +516,19 @@ pub fn design<const N: usize>(
     if (0..nx).any(|i| ad[i][0] != if i == 0 { 1.0 } else { 0.0 }) {
         return Err(LqgError::Numerics);
     }
-    let kfull = regulator(model, &ad, &bd, weights, ts_s)?;
+    let kfull = regulator(model, &ad, &bd, weights, ts_s, 0.0)?;
+    let kmove = if weights.move_rate > 0.0 {
+        Some(regulator(
+            model,
+            &ad,
+            &bd,
+            weights,
+            ts_s,
+            weights.move_rate,
+        )?)
+    } else {
+        None
+    };
     let (pct, sinv) = kalman(model, &ad, &bd, weights, noise)?;
     let e = &model.root_strain_coef;
 
@@ -512,12 +554,19 @@ pub fn design<const N: usize>(
         }
         out.bd[at(i)] = bd[i] as f32;
         out.k[at(i)] = kfull[i] as f32;
+        if let Some(kmove) = kmove {
+            out.k_move[at(i)] = (kmove[i] - kfull[i]) as f32;
+        }
         for r in 0..2 {
             out.l[at(i)][r] = (pct[i][0] * sinv[0][r] + pct[i][1] * sinv[1][r]) as f32;
         }
     }
     for i in 0..N {
         out.strain_coef[i] = e[i] as f32;
+    }
+    if weights.count_interval && noise.encoder_step_rad.is_finite() {
+        let step = noise.encoder_step_rad as f32;
+        out.count_interval = [step.min(0.0), step.max(0.0)];
     }
     reference_beam(model, &minv, ts_s, &mut out);
     let finite = out
@@ -533,13 +582,15 @@ pub fn design<const N: usize>(
 
 /// The state feedback on the sampled model `(ad, bd)` augmented with the integral of the hub
 /// angle: `K = (R + B'XB)^-1 B'XA` from the regulator's Riccati equation, in the model's
-/// layout, the integral's gain last.
+/// layout, the integral's gain last; with `rate > 0`, every closed-loop pole of the model
+/// left of `-rate`, 1/s.
 fn regulator<const N: usize>(
     model: &ModalModel<N>,
     ad: &Mat,
     bd: &[f64; D],
     weights: &LqgWeights,
     ts_s: f64,
+    rate: f64,
 ) -> Result<[f64; D], LqgError> {
     let nx = 2 + 2 * N;
     // Regulator on [x; z], z the integral of the hub angle error: z+ = z + ts theta.
@@ -549,6 +600,17 @@ fn regulator<const N: usize>(
     aa[nx][0] = ts_s;
     let mut ba = *bd;
     ba[nx] = 0.0;
+    // A prescribed degree of stability: the regulator of `(e^(rate ts) A, e^(rate ts) B)`
+    // holds that pair's poles inside the unit circle, so the true pair's lie within
+    // `e^(-rate ts)`, left of `-rate` (Anderson and Moore). The integral's row is left as it
+    // is: with `ki = 0` its pole stays where the small weight below puts it.
+    let g = libm::exp(rate * ts_s);
+    for i in 0..nx {
+        for j in 0..nx {
+            aa[i][j] *= g;
+        }
+        ba[i] *= g;
+    }
     let mut q = ZERO;
     q[0][0] = weights.kp * weights.kp;
     q[1 + N][1 + N] = weights.kd * weights.kd;
@@ -819,9 +881,12 @@ mod tests {
             ki: 200.0,
             kq: 1e4,
             sigma_nm: 0.5,
+            move_rate: 0.0,
+            count_interval: false,
         };
         let noise = SensorNoise {
             theta_rad: 1e-4,
+            encoder_step_rad: 0.0,
             strain: 1e-6,
         };
         // A design holds the first two modes; the whole model is refused.
@@ -866,5 +931,75 @@ mod tests {
         let norm = |v: &[f64]| v.iter().map(|a| a.abs()).fold(0.0, f64::max);
         assert!(norm(&e) < 1e-3, "observer error {:?}", e);
         assert!(norm(&x) < 1e-3, "closed loop {:?}", x);
+    }
+
+    /// The spectral radius of the sampled closed loop `A - B k` (no integral), from the
+    /// growth of `(A - B k)^n`: Gelfand's formula, `||M^n||^(1/n) -> rho(M)`.
+    fn spectral_radius(d: &LqgDesign, k: &[f64; MAX_STATES]) -> f64 {
+        let nx = MAX_STATES;
+        let a = |i: usize, j: usize| match j {
+            0 => f64::from(u8::from(i == 0)),
+            _ => d.ad[i][j - 1] as f64,
+        };
+        let m: [[f64; MAX_STATES]; MAX_STATES] =
+            core::array::from_fn(|i| core::array::from_fn(|j| a(i, j) - d.bd[i] as f64 * k[j]));
+        // M^(2^12) by squaring, renormalised each time (the radius is the product's).
+        let mut p = m;
+        let mut log_scale = 0.0f64;
+        let n = 12;
+        for _ in 0..n {
+            let sq: [[f64; MAX_STATES]; MAX_STATES] = core::array::from_fn(|i| {
+                core::array::from_fn(|j| (0..nx).map(|l| p[i][l] * p[l][j]).sum())
+            });
+            let big = sq.iter().flatten().fold(0.0f64, |b, v| b.max(v.abs()));
+            log_scale = 2.0 * log_scale + big.ln();
+            p = sq.map(|row| row.map(|v| v / big));
+        }
+        (log_scale / f64::from(1u32 << n)).exp()
+    }
+
+    #[test]
+    fn the_moving_regulator_holds_every_pole_left_of_its_rate() {
+        let m = leading_modes::<3, DESIGN_MODES>(&model()).unwrap();
+        let ts = 1e-3;
+        let noise = SensorNoise {
+            theta_rad: 1e-4,
+            encoder_step_rad: 0.0,
+            strain: 1e-6,
+        };
+        for rate in [5.0, 20.0] {
+            let w = LqgWeights {
+                kp: 200.0,
+                kd: 1.0,
+                ki: 0.0,
+                kq: 1e4,
+                sigma_nm: 2.0,
+                move_rate: rate,
+                count_interval: false,
+            };
+            let d = design(&m, &w, &noise, ts).unwrap();
+            let base: [f64; MAX_STATES] = core::array::from_fn(|i| d.k[i] as f64);
+            let moving: [f64; MAX_STATES] = core::array::from_fn(|i| (d.k[i] + d.k_move[i]) as f64);
+            // Inside the circle of radius e^(-rate ts): every pole left of -rate. The loop's
+            // own regulator is not (its slowest poles are near -11 1/s), so the bound is the
+            // design's doing.
+            let bound = (-rate * ts).exp();
+            let (rb, rm) = (spectral_radius(&d, &base), spectral_radius(&d, &moving));
+            assert!(rm < bound, "rate {rate}: {rm} against {bound}");
+            assert!(rb > (-20.0 * ts).exp(), "the regulator alone: {rb}");
+            // With no rate there is nothing to add.
+            let d0 = design(
+                &m,
+                &LqgWeights {
+                    move_rate: 0.0,
+                    ..w
+                },
+                &noise,
+                ts,
+            )
+            .unwrap();
+            assert_eq!(d0.k_move, [0.0; MAX_STATES]);
+            assert_eq!(d0.k, d.k);
+        }
     }
 }

@@ -10,7 +10,7 @@ use crate::plant::{Breakdown, Plant, State};
 use crate::sensors::{SensorConfig, Sensors};
 use model_core::controller::ConfigError;
 use model_core::law::LawPlant;
-use model_core::lqg::{LqgDesign, LqgError, DESIGN_MODES, MAX_STATES};
+use model_core::lqg::{LqgDesign, LqgError, LqgWeights, DESIGN_MODES, MAX_STATES};
 use model_core::planner::MAX_WAYPOINTS;
 use model_core::spline::paper_slew;
 use model_core::{plan_through, Limits, Shaper, Timing, Waypoint};
@@ -405,8 +405,8 @@ impl<P: LawPlant> LawPlant for TrueState<P> {
         self.0.point()
     }
 
-    fn lqg(&self, gains: &LqgGains, ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
-        self.0.lqg(gains, ts_s).map(|design| {
+    fn lqg(&self, weights: &LqgWeights, ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
+        self.0.lqg(weights, ts_s).map(|design| {
             design.map(|mut d| {
                 d.l = [[0.0; 2]; MAX_STATES];
                 d

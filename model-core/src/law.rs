@@ -21,7 +21,7 @@ use crate::modal::ModalModel;
 use crate::plant::PlantPoint;
 use crate::spline::RefPoint;
 use beam_kinds::GainRule;
-use beam_model::lqg::{LqgDesign, LqgError};
+use beam_model::lqg::{LqgDesign, LqgError, LqgWeights};
 
 pub use beam_kinds::{GainSpec, LawKind, Search, Setting, Settings, Sign, Switching, MAX_GAINS};
 
@@ -33,17 +33,17 @@ mod smc_i;
 mod smc_modal;
 mod smc_strain;
 
-#[cfg(feature = "observer")]
-pub use lqg::ObserverState;
 pub use lqg::{
     LqgGains, ASSUMED_STRAIN_NOISE, INTEGRAL_MAX_RATE_RAD_S, LQG_MODES, TORQUE_LOWPASS_ALPHA,
     TORQUE_LOWPASS_HZ,
 };
+#[cfg(feature = "observer")]
+pub use lqg::{ObserverState, MOVE_FADE_PER_TICK, MOVE_FADE_S};
 pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
 pub use smc::SmcGains;
 pub use smc_i::SmcIGains;
-pub use smc_modal::{SmcModalGains, SMC_MODAL_KD};
+pub use smc_modal::{SmcModalGains, SMC_MODAL_KD, SMC_MODAL_MOVE_RATE};
 pub use smc_strain::StrainSmcGains;
 
 /// Defines a law's gain type: its gains as `f32` fields, named and ordered as the law's
@@ -410,10 +410,10 @@ impl LawState {
 pub trait LawPlant {
     /// The plant's numbers the laws read.
     fn point(&self) -> PlantPoint;
-    /// The LQG design for `gains` on this plant, sampled at `ts_s`; `None` if this plant
+    /// The LQG design for `weights` on this plant, sampled at `ts_s`; `None` if this plant
     /// cannot design one (a [`PlantPoint`], a bare [`ModalModel`]). A modal model read
     /// through instruments (`crate::table::Instrumented`) designs it with their noise.
-    fn lqg(&self, _gains: &LqgGains, _ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
+    fn lqg(&self, _weights: &LqgWeights, _ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
         None
     }
 }
@@ -571,6 +571,13 @@ pub(crate) mod tests {
             (alpha - TORQUE_LOWPASS_ALPHA as f64).abs() < 1e-4,
             "{alpha}"
         );
+    }
+
+    #[cfg(feature = "observer")]
+    #[test]
+    fn the_moving_regulators_fade_is_its_time_constant_at_the_drives_tick() {
+        let step = libm::exp(-(crate::DEFAULT_TS_S as f64) / MOVE_FADE_S as f64);
+        assert!((step - MOVE_FADE_PER_TICK as f64).abs() < 1e-7, "{step}");
     }
 
     #[test]

@@ -124,6 +124,7 @@ impl Instruments {
         let quantum = |step: f64| step / libm::sqrt(12.0);
         beam_model::lqg::SensorNoise {
             theta_rad: quantum(self.encoder.rad_per_count()),
+            encoder_step_rad: self.encoder.signed_rad_per_count(),
             strain: quantum(self.adc.strain_per_code()).max(crate::law::ASSUMED_STRAIN_NOISE),
         }
     }

@@ -16,7 +16,7 @@
 
 use crate::beam::ParamError;
 use crate::controller::ControllerSettings;
-use crate::law::{ControlLaw, Law, LawKind, LawPlant, LawSet, LqgGains, ALL_LAWS, LQG_MODES};
+use crate::law::{ControlLaw, Law, LawKind, LawPlant, LawSet, ALL_LAWS, LQG_MODES};
 pub use crate::measure::Instruments;
 use crate::modal::ModalModel;
 use crate::planner::Limits;
@@ -103,17 +103,10 @@ impl<const N: usize> LawPlant for Instrumented<'_, N> {
         PlantPoint::of(self.model)
     }
 
-    fn lqg(&self, g: &LqgGains, ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
+    fn lqg(&self, weights: &LqgWeights, ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
         if !cfg!(feature = "observer") {
             return None;
         }
-        let weights = LqgWeights {
-            kp: g.kp as f64,
-            kd: g.kd as f64,
-            ki: g.ki as f64,
-            kq: g.kq as f64,
-            sigma_nm: g.sigma as f64,
-        };
         let noise = self.instruments.noise();
         // On the first LQG_MODES modes: a controller that also observes the higher modes
         // tracks them on the model's frequencies, and a beam a few percent off those turns
@@ -121,8 +114,8 @@ impl<const N: usize> LawPlant for Instrumented<'_, N> {
         // they see a gain that has rolled off by their frequencies. A model with fewer modes
         // is designed on as it is.
         Some(match lqg::leading_modes::<N, LQG_MODES>(self.model) {
-            Some(leading) => lqg::design(&leading, &weights, &noise, ts_s),
-            None => lqg::design(self.model, &weights, &noise, ts_s),
+            Some(leading) => lqg::design(&leading, weights, &noise, ts_s),
+            None => lqg::design(self.model, weights, &noise, ts_s),
         })
     }
 }
@@ -297,7 +290,7 @@ impl LawPlant for DesignedPlant {
         self.point
     }
 
-    fn lqg(&self, _: &LqgGains, _: f64) -> Option<Result<LqgDesign, LqgError>> {
+    fn lqg(&self, _: &LqgWeights, _: f64) -> Option<Result<LqgDesign, LqgError>> {
         self.design.map(Ok)
     }
 }

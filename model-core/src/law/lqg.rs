@@ -12,7 +12,7 @@ use crate::beam::ParamErrorKind;
 use crate::plant::PlantPoint;
 use crate::spline::RefPoint;
 #[cfg(feature = "observer")]
-use beam_model::lqg::{LqgDesign, LqgError, DESIGN_MODES, MAX_STATES};
+use beam_model::lqg::{LqgDesign, LqgError, LqgWeights, DESIGN_MODES, MAX_STATES};
 
 gains! {
     /// LQG weights (`beam_model::lqg::LqgWeights` in `f32`): the state feedback with
@@ -29,6 +29,60 @@ gains! {
         kq,
         /// Disturbance torque the observer assumes, N m.
         sigma,
+    }
+}
+
+#[cfg(feature = "observer")]
+impl LqgGains {
+    /// The design's weights, with a regulator of degree of stability `move_rate` (1/s, 0 for
+    /// none) while the reference moves and the encoder read at rest as its count's interval
+    /// if `count_interval` (`beam_model::lqg::LqgWeights`).
+    pub fn weights(&self, move_rate: f64, count_interval: bool) -> LqgWeights {
+        LqgWeights {
+            kp: self.kp as f64,
+            kd: self.kd as f64,
+            ki: self.ki as f64,
+            kq: self.kq as f64,
+            sigma_nm: self.sigma as f64,
+            move_rate,
+            count_interval,
+        }
+    }
+
+    /// The law designed on `plant` from these weights and the two options of
+    /// [`LqgGains::weights`].
+    pub(super) fn build_with(
+        &self,
+        plain: ControlLaw,
+        plant: &impl LawPlant,
+        move_rate: f64,
+        count_interval: bool,
+    ) -> Result<ControlLaw, ParamError> {
+        let weights = self.weights(move_rate, count_interval);
+        let design = plant
+            .lqg(&weights, crate::DEFAULT_TS_S as f64)
+            .ok_or(ParamError {
+                field: "lqg",
+                kind: ParamErrorKind::NeedsModel,
+            })?
+            .map_err(|e| ParamError {
+                field: "lqg",
+                kind: match e {
+                    LqgError::Weights => ParamErrorKind::OutOfRange,
+                    LqgError::Numerics | LqgError::Modes => ParamErrorKind::NoDesign,
+                },
+            })?;
+        // |Ki z| within the limit: the integral cannot wind up past what it can use.
+        let ki = libm::fabsf(design.ki);
+        Ok(ControlLaw {
+            integral_max: if ki > 0.0 {
+                design.torque_limit_nm / ki
+            } else {
+                0.0
+            },
+            observer: design,
+            ..plain
+        })
     }
 }
 
@@ -68,7 +122,21 @@ pub struct ObserverState {
     /// this state is as [`Default`] made it (a new or restarted [`LawState`]), and the next
     /// tick only sets the angle.
     pub(crate) observing: bool,
+    /// How much of the moving regulator ([`LqgDesign::k_move`]) the feedback carries: 1 while
+    /// the reference moves, then fading over [`MOVE_FADE_S`]; 0 before the first move.
+    pub move_weight: f32,
 }
+
+/// How long the moving regulator ([`LqgDesign::k_move`]) fades over once the reference is at
+/// rest, s (the time constant): long enough to damp what the move left, short enough that
+/// the quieter regulator holds the beam in its band against the sensors' noise.
+#[cfg(feature = "observer")]
+pub const MOVE_FADE_S: f32 = 0.2;
+
+/// The fade's factor per tick at the drive's 1 kHz, `exp(-ts / MOVE_FADE_S)` (a test checks
+/// it).
+#[cfg(feature = "observer")]
+pub const MOVE_FADE_PER_TICK: f32 = 0.995_012_5;
 
 /// The span of the residuals' low-pass, ticks: a fault that lasts a tenth of this is seen,
 /// one tick of noise is averaged away.
@@ -107,7 +175,10 @@ impl LawGains for LqgGains {
     const MIN_MOVE_PERIODS: f32 = 0.66;
 
     /// The design on `plant`; refused on a plant that cannot design one (a [`PlantPoint`])
-    /// and without the `observer` feature.
+    /// and without the `observer` feature. One regulator throughout, and the encoder read as
+    /// a point: the faster regulator while moving and the count's interval at rest made the
+    /// lqg law's p95 no shorter (its integral holds the hub by the sub-count estimate;
+    /// docs/results.md).
     fn build(
         &self,
         plain: ControlLaw,
@@ -116,30 +187,7 @@ impl LawGains for LqgGains {
     ) -> Result<ControlLaw, ParamError> {
         #[cfg(feature = "observer")]
         {
-            let design = plant
-                .lqg(self, crate::DEFAULT_TS_S as f64)
-                .ok_or(ParamError {
-                    field: "lqg",
-                    kind: ParamErrorKind::NeedsModel,
-                })?
-                .map_err(|e| ParamError {
-                    field: "lqg",
-                    kind: match e {
-                        LqgError::Weights => ParamErrorKind::OutOfRange,
-                        LqgError::Numerics | LqgError::Modes => ParamErrorKind::NoDesign,
-                    },
-                })?;
-            // |Ki z| within the limit: the integral cannot wind up past what it can use.
-            let ki = libm::fabsf(design.ki);
-            Ok(ControlLaw {
-                integral_max: if ki > 0.0 {
-                    design.torque_limit_nm / ki
-                } else {
-                    0.0
-                },
-                observer: design,
-                ..plain
-            })
+            self.build_with(plain, plant, 0.0, false)
         }
         #[cfg(not(feature = "observer"))]
         {
@@ -290,9 +338,12 @@ pub(super) fn observe(
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
     // it there too; the law cannot tell that pause from the end.)
     // Each row is stored as it is made (an array made first is stored and copied).
-    if r.vel == 0.0 && r.acc == 0.0 {
+    let at_rest = r.vel == 0.0 && r.acc == 0.0;
+    if at_rest {
         state.reference = [0.0; 2 * DESIGN_MODES];
+        state.move_weight *= MOVE_FADE_PER_TICK;
     } else {
+        state.move_weight = 1.0;
         unrolled!(i in [0 1 2 3] => {
             let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
             state.reference[i] = if i < DESIGN_MODES {
@@ -314,7 +365,25 @@ pub(super) fn observe(
         let init = d.bd[i] * u_last;
         dot5(if i == 0 { init + xo[0] } else { init }, &d.ad[i], &xt)
     });
-    let innov_theta = x.theta - head[0];
+    // At rest the reading says the hub is within its count, `[theta + lo, theta + hi]`
+    // (`LqgDesign::count_interval`): the angle is corrected only by how far the prediction
+    // lies outside it. Read as a noisy point, a hub still between two counts toggles the
+    // estimate a count's width each time the reading flips, and the torque that follows
+    // keeps the beam ringing (0.7 ue RMS on the model, 2 ue on beams off it). While the
+    // reference moves the point is read as it is.
+    let innov_theta = {
+        let e = x.theta - head[0];
+        let [lo, hi] = d.count_interval;
+        if !at_rest || libm::fabsf(e) > 2.0 * (hi - lo) {
+            e
+        } else if e + lo > 0.0 {
+            e + lo
+        } else if e + hi < 0.0 {
+            e + hi
+        } else {
+            0.0
+        }
+    };
     let innov_strain = x.strain - d.strain_coef[0] * head[1] - d.strain_coef[1] * head[2];
     // What each sensor says against what the observer expected it to say (the drive's
     // sensor monitor reads these, `Controller::step_in`).
@@ -326,11 +395,12 @@ pub(super) fn observe(
     // The update, and the state the feedback holds it to: the hub on its reference, the
     // beam as the reference beam is.
     let reference = [pos, rq[0], rq[1], vel, rdq[0], rdq[1]];
+    let w = state.move_weight;
     let mut sigma = 0.0f32;
     macro_rules! update {
         ($i:ident, $pred:expr) => {{
             let xi = $pred + d.l[$i][0] * innov_theta + d.l[$i][1] * innov_strain;
-            let feedback = d.k[$i] * (xi - reference[$i]);
+            let feedback = (d.k[$i] + w * d.k_move[$i]) * (xi - reference[$i]);
             u -= feedback;
             sigma += feedback;
             state.estimate[$i] = xi;
