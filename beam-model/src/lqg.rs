@@ -58,9 +58,9 @@ pub struct LqgWeights {
     /// the sensors more (a faster observer).
     pub sigma_nm: f64,
     /// The regulator while the reference moves: one designed on the same weights so that every
-    /// closed-loop pole of the nominal model lies left of `-move_rate`, 1/s (an LQR with a
-    /// prescribed degree of stability), the loop's own regulator `K` at rest. 0: `K`
-    /// throughout ([`LqgDesign::k_move`] is zero).
+    /// closed-loop pole of the nominal model (the integral's aside) lies left of `-move_rate`,
+    /// 1/s (an LQR with a prescribed degree of stability), the loop's own regulator `K` at
+    /// rest. 0: `K` throughout ([`LqgDesign::k_move`] is zero).
     pub move_rate: f64,
     /// Whether the observer reads the encoder at rest as the count's interval
     /// ([`LqgDesign::count_interval`]), not as a noisy point.

@@ -52,7 +52,7 @@ gains! {
 pub const SMC_MODAL_KD: f32 = 1.0;
 
 /// The degree of stability of the regulator the law runs while the reference moves and for
-/// a while after it stops ([`MOVE_FADE_S`](crate::law::MOVE_FADE_S)), 1/s
+/// a while after it stops (`law::MOVE_FADE_S`, with the `observer` feature), 1/s
 /// (`beam_model::lqg::LqgWeights::move_rate`): every closed-loop pole of the nominal model
 /// left of -5 1/s.
 ///
