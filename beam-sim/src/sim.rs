@@ -360,14 +360,123 @@ pub fn simulate_mismatched<const N: usize>(
     law: Law,
     opts: &SimOptions,
 ) -> Result<SimResult, SimError> {
+    simulate_knowing(plant, nominal, Known::NONE, law, opts)
+}
+
+/// Which parts of the drive are built on the beam on the hub rather than on the drive's
+/// nominal model ([`simulate_knowing`]): what identifying the beam for that part alone could
+/// at most give.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Known {
+    /// An observer law's model of the beam: the observer's sampled dynamics, its centrifugal
+    /// term and its strain output.
+    pub observer: bool,
+    /// The observer's Kalman gain.
+    pub kalman: bool,
+    /// The feedback: the observer laws' regulators and integral gain, and the plant's numbers
+    /// every law scales its gains by (`LawPlant::point`).
+    pub regulator: bool,
+    /// The move: an observer law's reference beam and feedforward, and the planner's limits.
+    /// A shaper's frequency is the caller's to move.
+    pub reference: bool,
+}
+
+impl Known {
+    /// The drive built on its nominal model alone.
+    pub const NONE: Self = Self {
+        observer: false,
+        kalman: false,
+        regulator: false,
+        reference: false,
+    };
+    /// The drive built on the beam itself.
+    pub const ALL: Self = Self {
+        observer: true,
+        kalman: true,
+        regulator: true,
+        reference: true,
+    };
+
+    /// `nominal` with the parts known taken from `beam`, the design made on the beam.
+    pub fn take(self, mut nominal: LqgDesign, beam: &LqgDesign) -> LqgDesign {
+        let d = &mut nominal;
+        if self.observer {
+            d.ad = beam.ad;
+            d.bd = beam.bd;
+            d.strain_coef = beam.strain_coef;
+            d.obs_s = beam.obs_s;
+            d.count_interval = beam.count_interval;
+        }
+        if self.kalman {
+            d.l = beam.l;
+        }
+        if self.regulator {
+            d.k = beam.k;
+            d.k_move = beam.k_move;
+            d.ki = beam.ki;
+            d.jeff = beam.jeff;
+        }
+        if self.reference {
+            d.ref_ad = beam.ref_ad;
+            d.ref_bd = beam.ref_bd;
+            d.ref_hub = beam.ref_hub;
+            d.ref_s = beam.ref_s;
+            d.mtt = beam.mtt;
+            d.viscous = beam.viscous;
+            d.torque_limit_nm = beam.torque_limit_nm;
+        }
+        nominal
+    }
+}
+
+/// A drive's model with the parts in `known` made on `beam` and the rest on `nominal`.
+struct PartlyKnown<P> {
+    beam: P,
+    nominal: P,
+    known: Known,
+}
+
+impl<P: LawPlant> LawPlant for PartlyKnown<P> {
+    fn point(&self) -> model_core::PlantPoint {
+        if self.known.regulator {
+            self.beam.point()
+        } else {
+            self.nominal.point()
+        }
+    }
+
+    fn lqg(&self, weights: &LqgWeights, ts_s: f64) -> Option<Result<LqgDesign, LqgError>> {
+        let nominal = self.nominal.lqg(weights, ts_s)?;
+        if self.known == Known::NONE {
+            return Some(nominal);
+        }
+        let beam = self.beam.lqg(weights, ts_s)?;
+        Some(nominal.and_then(|n| beam.map(|b| self.known.take(n, &b))))
+    }
+}
+
+/// [`simulate_mismatched`] with the parts of the drive in `known` built on `plant` itself
+/// rather than on `nominal`.
+pub fn simulate_knowing<const N: usize>(
+    plant: &ModalModel<N>,
+    nominal: &ModalModel<N>,
+    known: Known,
+    law: Law,
+    opts: &SimOptions,
+) -> Result<SimResult, SimError> {
     let settings = ControllerSettings {
         theta_home_rad: opts.motion.from_rad,
         ..settings_for(nominal, &opts.sensors)
     };
     // The planner's limits for this law (a floor on the move's time for the lqg law).
-    let limits = Limits::for_law(nominal, &law);
+    let limits = Limits::for_law(if known.reference { plant } else { nominal }, &law);
     // Designed on the instruments the loop reads (an observer law's noise is theirs).
-    let on = opts.sensors.instruments().on(nominal);
+    let instruments = opts.sensors.instruments();
+    let on = PartlyKnown {
+        beam: instruments.on(plant),
+        nominal: instruments.on(nominal),
+        known,
+    };
     let law = if opts.true_state {
         ControlLaw::try_build(law, TrueState(on))
     } else {

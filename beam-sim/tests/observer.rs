@@ -11,8 +11,8 @@ mod common;
 use beam_sim::plant::Plant;
 use beam_sim::sensors::SensorConfig;
 use beam_sim::sim::{
-    run_with, settings_for, DriveLoop, Motion, SimError, SimOptions, SimResult, TrueState,
-    HAND_PICKED_LQG,
+    run_with, settings_for, simulate_knowing, simulate_mismatched, DriveLoop, Known, Motion,
+    SimError, SimOptions, SimResult, TrueState, HAND_PICKED_LQG,
 };
 use model_core::lqg::{DESIGN_MODES, MAX_STATES};
 use model_core::{
@@ -425,4 +425,61 @@ fn at_rest_smc_modal_reads_the_encoders_count_as_an_interval_and_the_beam_stays_
         point > 2.0 * interval,
         "lqg rings at {point} ue RMS at rest"
     );
+}
+
+/// The parts a sweep's drive may know of its beam (`beam sweep --drive-knows`) make up the
+/// whole design: a drive that knows every part runs, to the bit, as the drive built on the
+/// beam, and one that knows none as the drive built on its nominal model. A drive that knows
+/// one part runs as neither.
+#[test]
+fn a_drive_that_knows_every_part_of_the_beam_is_the_drive_built_on_it() {
+    let nominal = BeamParams::aluminium();
+    let beam = BeamParams {
+        ei_nm2: nominal.ei_nm2 * 1.15,
+        density_kg_m3: nominal.density_kg_m3 * 0.9,
+        jm_kgm2: nominal.jm_kgm2 * 1.1,
+        ..nominal
+    };
+    let (p, n) = (model(beam), model(nominal));
+    for kind in [model_core::LawKind::SmcModal, model_core::LawKind::Lqg] {
+        let opts = SimOptions {
+            duration_s: 1.0,
+            motion: Motion {
+                shortest: true,
+                shaper: common::shipped().shaper(kind, 0.0),
+                ..Motion::default()
+            },
+            ..SimOptions::default()
+        };
+        let law = common::shipped().law(kind, 0.0).unwrap();
+        let torques = |r: SimResult| -> Vec<f64> { r.samples.iter().map(|s| s.torque).collect() };
+        let knowing = |known| torques(simulate_knowing(&p, &n, known, law, &opts).unwrap());
+        let built_on_beam = torques(simulate_mismatched(&p, &p, law, &opts).unwrap());
+        let built_on_nominal = torques(simulate_mismatched(&p, &n, law, &opts).unwrap());
+        assert_ne!(built_on_beam, built_on_nominal);
+        assert_eq!(knowing(Known::ALL), built_on_beam);
+        assert_eq!(knowing(Known::NONE), built_on_nominal);
+        let parts = [
+            Known {
+                observer: true,
+                ..Known::NONE
+            },
+            Known {
+                kalman: true,
+                ..Known::NONE
+            },
+            Known {
+                regulator: true,
+                ..Known::NONE
+            },
+            Known {
+                reference: true,
+                ..Known::NONE
+            },
+        ];
+        for part in parts {
+            let run = knowing(part);
+            assert!(run != built_on_beam && run != built_on_nominal, "{part:?}");
+        }
+    }
 }

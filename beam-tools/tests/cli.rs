@@ -338,8 +338,14 @@ fn optimize_writes_a_valid_table_row() {
 
 #[test]
 fn moves_shapers_loads_and_robust_design_reject_bad_input_in_one_line() {
-    let cases: [(&[&str], &str); 25] = [
+    let cases: [(&[&str], &str); 27] = [
         (&["simulate", "--shaper", "zvd"], "--shaper-hz"),
+        // The whole drive, or some of its parts, not both.
+        (
+            &["sweep", "--drive-knows-beam", "--drive-knows", "observer"],
+            "cannot be used with",
+        ),
+        (&["sweep", "--drive-knows", "observer,brain"], "brain"),
         // Only an observer law has a state to feed.
         (
             &["simulate", "--controller", "smc", "--true-state"],

@@ -140,6 +140,40 @@ fn sweep_reads_a_table_at_run_time_and_writes_each_case_draw() {
 }
 
 #[test]
+fn sweep_builds_the_parts_of_the_drive_it_is_told_on_the_drawn_beam() {
+    let run = |known: &[&str]| {
+        let mut argv = vec![
+            "sweep",
+            "--controller",
+            "smc-modal",
+            "--cases",
+            "4",
+            "--moves",
+            "45",
+            "--shortest",
+            "--no-peer",
+            "--json",
+        ];
+        argv.extend(known);
+        json(&beam(&argv))
+    };
+    let all = run(&["--drive-knows-beam"]);
+    let parts = run(&["--drive-knows", "observer,kalman,regulator,reference"]);
+    let some = run(&["--drive-knows", "observer,reference"]);
+    let none = run(&[]);
+    // Every part is the whole drive; the JSON says which parts were known.
+    assert_eq!(all["metrics"], parts["metrics"]);
+    assert_eq!(all["drive_knows"], parts["drive_knows"]);
+    assert_eq!(
+        some["drive_knows"],
+        serde_json::json!({"observer": true, "kalman": false, "regulator": false, "reference": true})
+    );
+    assert!(none.get("drive_knows").is_none());
+    assert_ne!(some["metrics"], all["metrics"]);
+    assert_ne!(some["metrics"], none["metrics"]);
+}
+
+#[test]
 fn simulate_plans_moves_through_waypoints_in_the_shortest_time() {
     // The planner's shortest 180 deg quintic is speed-bound: 15/8 * pi / T = 20 rad/s at
     // T = 0.2945 s (its torque, 5.7 N m, is within 60 % of 10 N m there). The planner keeps

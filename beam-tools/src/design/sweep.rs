@@ -6,7 +6,7 @@
 
 use beam_sim::metrics::{metrics_with, Metrics, SettleSpec};
 use beam_sim::sensors::SensorConfig;
-use beam_sim::sim::{simulate_mismatched, Motion, SimError, SimOptions, SimResult};
+use beam_sim::sim::{simulate_knowing, Known, Motion, SimError, SimOptions, SimResult};
 use model_core::Instruments;
 use model_core::{Beam, BeamParams, Law, ModalModel, Shaper, Timing};
 use rand::{rngs::StdRng, Rng, SeedableRng};
@@ -48,11 +48,11 @@ pub struct SweepSpec {
     pub instruments: Instruments,
     /// Feed the controller's observer law the true state ([`SimOptions::true_state`]).
     pub true_state: bool,
-    /// Build each case's drive on the drawn beam instead of the nominal one at the drawn
-    /// payload (its laws' designs, its planner's inertia), with the shapers' frequencies
-    /// scaled by the drawn beam's first hub-free frequency against the nominal's: what
-    /// identifying the beam could at most give.
-    pub drive_knows_beam: bool,
+    /// The parts of each case's drive built on the drawn beam instead of the nominal one at
+    /// the drawn payload (its laws' designs, its planner's inertia); where the reference is
+    /// known, the shapers' frequencies are scaled by the drawn beam's first hub-free
+    /// frequency against the nominal's: what identifying the beam could at most give.
+    pub drive_knows: Known,
 }
 
 /// The simulated time a sweep runs by default, s: settle times of several seconds are common
@@ -198,9 +198,10 @@ struct CaseBeams<const N: usize> {
     index: usize,
     perturbation: Perturbation,
     plant: ModalModel<N>,
-    drive: ModalModel<N>,
-    /// The factor on the shapers' frequencies: 1, or the drive's first hub-free frequency
-    /// against the nominal beam's at the payload ([`SweepSpec::drive_knows_beam`]).
+    nominal: ModalModel<N>,
+    /// The factor on the shapers' frequencies: 1, or the drawn beam's first hub-free
+    /// frequency against the nominal beam's at the payload, if the drive knows the reference
+    /// ([`SweepSpec::drive_knows`]).
     shaper_scale: f32,
 }
 
@@ -215,17 +216,16 @@ impl<const N: usize> CaseBeams<N> {
             tip_mass_kg: p.payload_kg,
             ..*nominal
         })?;
-        let (drive, shaper_scale) = if spec.drive_knows_beam {
-            let scale = plant.pinned_hz[0] / at_payload.pinned_hz[0];
-            (plant, scale as f32)
+        let shaper_scale = if spec.drive_knows.reference {
+            (plant.pinned_hz[0] / at_payload.pinned_hz[0]) as f32
         } else {
-            (at_payload, 1.0)
+            1.0
         };
         Ok(Self {
             index,
             perturbation: p,
             plant,
-            drive,
+            nominal: at_payload,
             shaper_scale,
         })
     }
@@ -246,7 +246,7 @@ impl<const N: usize> CaseBeams<N> {
             true_state: spec.true_state,
             ..Default::default()
         };
-        simulate_mismatched(&self.plant, &self.drive, law, &opts)
+        simulate_knowing(&self.plant, &self.nominal, spec.drive_knows, law, &opts)
     }
 }
 
@@ -425,33 +425,39 @@ mod tests {
             settle: SettleSpec::default(),
             instruments: Instruments::DEFAULT,
             true_state: false,
-            drive_knows_beam: false,
+            drive_knows: Known::NONE,
         }
     }
 
     #[test]
-    fn a_drive_that_knows_the_beam_is_built_on_the_drawn_beam() {
+    fn a_drive_that_knows_the_reference_moves_its_shapers_to_the_drawn_beam() {
         let spec = SweepSpec {
             cases: 4,
             seed: 5,
-            drive_knows_beam: true,
+            drive_knows: Known::ALL,
             ..spec()
         };
         let nominal = BeamParams::aluminium();
         let unknown = SweepSpec {
-            drive_knows_beam: false,
+            drive_knows: Known {
+                reference: false,
+                ..Known::ALL
+            },
             ..spec.clone()
         };
         for i in 0..spec.cases {
             let knows = CaseBeams::<2>::draw(&nominal, &spec, i).unwrap();
             let not = CaseBeams::<2>::draw(&nominal, &unknown, i).unwrap();
-            // The same beam is drawn; one drive is built on it, the other on the nominal
-            // beam at its payload.
-            assert_eq!((knows.plant, not.plant), (not.plant, knows.drive));
-            assert_ne!(not.drive, not.plant);
+            // The same beam and the same nominal model at its payload are drawn.
+            assert_eq!((knows.plant, knows.nominal), (not.plant, not.nominal));
+            assert_ne!(not.nominal, not.plant);
+            assert_eq!(
+                not.nominal.beam.params().tip_mass_kg,
+                knows.perturbation.payload_kg
+            );
             assert_eq!(not.shaper_scale, 1.0);
             let f = |m: &ModalModel<2>| m.pinned_hz[0];
-            let scale = (f(&knows.drive) / f(&not.drive)) as f32;
+            let scale = (f(&knows.plant) / f(&knows.nominal)) as f32;
             assert_eq!(knows.shaper_scale, scale);
             // A stiffer or lighter beam rings faster: the scale follows sqrt(EI / density)
             // within the payload's and Jm's share.

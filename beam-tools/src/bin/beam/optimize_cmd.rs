@@ -438,7 +438,7 @@ fn scenarios(
         settle: Default::default(),
         instruments: instruments(a)?,
         true_state: false,
-        drive_knows_beam: false,
+        drive_knows: beam_sim::sim::Known::NONE,
     };
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
     use rand::Rng;

@@ -4,9 +4,10 @@
 use crate::{beam, damping_range, named, PlantArgs, SettleArgs};
 use anyhow::{bail, Context};
 use beam_sim::metrics::Metrics;
+use beam_sim::sim::Known;
 use beam_tools::design::sweep::{sweep, trace_case, Case, LawSummary, SweepSpec, SUMMARY};
 use beam_tools::io::plot::{histograms, HistogramPanel};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use model_core::{BeamParams, Law, LawKind, PdGains};
 use serde_json::json;
 use std::io::Write;
@@ -81,8 +82,15 @@ pub struct SweepArgs {
     /// designs, the planner's inertia; the shapers' frequencies scaled by the drawn beam's
     /// first hub-free frequency against the nominal's): what identifying each beam could at
     /// most give. The PD baseline and the peer get the same drive.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "drive_knows")]
     drive_knows_beam: bool,
+    /// Build only these parts of each case's drive on the drawn beam, the rest on the nominal
+    /// one: `observer` (an observer law's model of the beam), `kalman` (its Kalman gain),
+    /// `regulator` (the feedback's gains, and the plant numbers every law scales its gains
+    /// by), `reference` (the reference beam and feedforward, the planner's inertia and the
+    /// shapers' frequencies). Comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "PART")]
+    drive_knows: Vec<DrivePart>,
     /// Write one row per case.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -140,7 +148,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         settle: a.settle.spec()?,
         instruments: table.map_or(model_core::Instruments::DEFAULT, |t| t.drive.instruments),
         true_state: a.true_state,
-        drive_knows_beam: a.drive_knows_beam,
+        drive_knows: a.known(),
     };
     if let Some(index) = a.case {
         return run_case(a, &nominal, &spec, &law_at, index);
@@ -388,8 +396,12 @@ fn print_json(
     if a.coulomb_max > 0.0 {
         put("coulomb_max_nm", json!(a.coulomb_max));
     }
-    if a.drive_knows_beam {
-        put("drive_knows_beam", json!(true));
+    let known = a.known();
+    if known != Known::NONE {
+        put(
+            "drive_knows",
+            json!({"observer": known.observer, "kalman": known.kalman, "regulator": known.regulator, "reference": known.reference}),
+        );
     }
     if !a.moves.is_empty() {
         put("moves_deg", json!(a.moves));
@@ -422,6 +434,12 @@ fn print_text(
     );
     if a.drive_knows_beam {
         println!("  each drive built on its drawn beam (--drive-knows-beam)");
+    } else if !a.drive_knows.is_empty() {
+        let parts: Vec<_> = a.drive_knows.iter().map(|p| p.name()).collect();
+        println!(
+            "  each drive's {} built on its drawn beam, the rest on the nominal (--drive-knows)",
+            parts.join(", ")
+        );
     }
     println!(
         "  model breakdowns: {kind} {}, pd {} (metrics below are over the runs that stayed in range)",
@@ -519,4 +537,40 @@ fn write_csv(nominal: &BeamParams, cases: &[Case], w: &mut dyn Write) -> std::io
         writeln!(w)?;
     }
     Ok(())
+}
+
+/// A part of the drive that `--drive-knows` builds on the drawn beam.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum DrivePart {
+    Observer,
+    Kalman,
+    Regulator,
+    Reference,
+}
+
+impl DrivePart {
+    fn name(self) -> &'static str {
+        match self {
+            DrivePart::Observer => "observer",
+            DrivePart::Kalman => "kalman",
+            DrivePart::Regulator => "regulator",
+            DrivePart::Reference => "reference",
+        }
+    }
+}
+
+impl SweepArgs {
+    /// The parts of the drive built on the drawn beam.
+    fn known(&self) -> Known {
+        if self.drive_knows_beam {
+            return Known::ALL;
+        }
+        let has = |part| self.drive_knows.contains(&part);
+        Known {
+            observer: has(DrivePart::Observer),
+            kalman: has(DrivePart::Kalman),
+            regulator: has(DrivePart::Regulator),
+            reference: has(DrivePart::Reference),
+        }
+    }
 }
