@@ -60,6 +60,9 @@ pub struct LqgWeights {
     /// Whether the observer reads the encoder at rest as the count's interval
     /// ([`LqgDesign::count_interval`]), not as a noisy point.
     pub count_interval: bool,
+    /// Whether the drive identifies the beam's stiffness at the start of each move and
+    /// corrects its observer's model for the rest of it ([`LqgDesign::id_a`]).
+    pub identify: bool,
 }
 
 /// What the sensors resolve, for the observer's measurement noise.
@@ -153,6 +156,20 @@ pub struct LqgDesign {
     pub viscous: f32,
     /// The torque limit, N m: the observer is fed the torque the drive could apply.
     pub torque_limit_nm: f32,
+    /// The identifier's beam: the modes with the hub clamped and turned by the measured
+    /// angle, `Mqq q'' + Kqq q = -h theta''`, in `z = q + G theta` (`G = Mqq^-1 h`, which
+    /// the drive finds from the reference beam's numbers) so that the angle drives it
+    /// without its second derivative: `z'' = -Mqq^-1 Kqq q`. This is `ts^2 Mqq^-1
+    /// Kqq`, the change per tick of `ts z'` per unit `q`, by rows (`[a00, a01, a10, a11]`).
+    /// The drive runs it at the start of a move with its stiffness scaled by `1/lambda` and
+    /// fits `lambda` to the gauge (the model's strain is about linear in it). Zero: the drive
+    /// does not identify.
+    pub id_a: [f32; DESIGN_MODES * DESIGN_MODES],
+    /// The diagonal of `ts Mqq^-1 Cq`: the modes' damping in the identifier's beam, the
+    /// change per tick of `ts z'` per unit `ts q'` (without it the fit took the damping's lag
+    /// for stiffness, 1.6 % on the model's own beam; the payload's coupling of the modes'
+    /// damping is left out).
+    pub id_c: [f32; DESIGN_MODES],
 }
 
 impl LqgDesign {
@@ -175,6 +192,8 @@ impl LqgDesign {
         mtt: 0.0,
         viscous: 0.0,
         torque_limit_nm: 0.0,
+        id_a: [0.0; DESIGN_MODES * DESIGN_MODES],
+        id_c: [0.0; DESIGN_MODES],
     };
 
     /// `self + (other - self) f`, entry by entry: the gain scheduling a drive does between
@@ -215,6 +234,8 @@ impl LqgDesign {
             mtt: m(a.mtt, b.mtt),
             viscous: m(a.viscous, b.viscous),
             torque_limit_nm: m(a.torque_limit_nm, b.torque_limit_nm),
+            id_a: each(&a.id_a, &b.id_a, m),
+            id_c: each(&a.id_c, &b.id_c, m),
         }
     }
 }
@@ -411,6 +432,9 @@ pub fn design<const N: usize>(
         out.count_interval = [step.min(0.0), step.max(0.0)];
     }
     reference_beam(model, &minv, ts_s, &mut out);
+    if weights.identify {
+        identifier(model, ts_s, &mut out)?;
+    }
     let finite = out
         .k
         .iter()
@@ -536,6 +560,29 @@ fn kalman<const N: usize>(
         [-s[1][0] / det, s[0][0] / det],
     ];
     Ok((pct, sinv))
+}
+
+/// The identifier's clamped beam ([`LqgDesign::id_a`], [`LqgDesign::id_g`]) into `out`.
+fn identifier<const N: usize>(
+    model: &ModalModel<N>,
+    ts_s: f64,
+    out: &mut LqgDesign,
+) -> Result<(), LqgError> {
+    let mut m = ZERO;
+    for i in 0..N {
+        for j in 0..N {
+            m[i][j] = model.mqq[i][j];
+        }
+    }
+    let mi = inverse(&m, N).ok_or(LqgError::Numerics)?;
+    for i in 0..N {
+        for j in 0..N {
+            let mk: f64 = (0..N).map(|l| mi[i][l] * model.kqq[l][j]).sum();
+            out.id_a[i * DESIGN_MODES + j] = (mk * ts_s * ts_s) as f32;
+        }
+        out.id_c[i] = ((0..N).map(|l| mi[i][l] * model.cq[l][i]).sum::<f64>() * ts_s) as f32;
+    }
+    Ok(())
 }
 
 /// The reference beam (the hub-free beam driven by the reference's rigid acceleration),
@@ -725,6 +772,7 @@ mod tests {
             sigma_nm: 0.5,
             move_rate: 0.0,
             count_interval: false,
+            identify: false,
         };
         let noise = SensorNoise {
             theta_rad: 1e-4,
@@ -818,6 +866,7 @@ mod tests {
                 sigma_nm: 2.0,
                 move_rate: rate,
                 count_interval: false,
+                identify: false,
             };
             let d = design(&m, &w, &noise, ts).unwrap();
             let base: [f64; MAX_STATES] = core::array::from_fn(|i| d.k[i] as f64);

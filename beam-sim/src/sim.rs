@@ -369,7 +369,7 @@ pub fn simulate_mismatched<const N: usize>(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Known {
     /// An observer law's model of the beam: the observer's sampled dynamics, its centrifugal
-    /// term and its strain output.
+    /// term, its strain output and its identifier's beam.
     pub observer: bool,
     /// The observer's Kalman gain.
     pub kalman: bool,
@@ -406,6 +406,8 @@ impl Known {
             d.strain_coef = beam.strain_coef;
             d.obs_s = beam.obs_s;
             d.count_interval = beam.count_interval;
+            d.id_a = beam.id_a;
+            d.id_c = beam.id_c;
         }
         if self.kalman {
             d.l = beam.l;

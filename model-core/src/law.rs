@@ -33,12 +33,17 @@ mod smc_i;
 mod smc_modal;
 mod smc_strain;
 
+#[cfg(feature = "identify")]
+pub use lqg::{
+    clamped_coupling, Adaptation, Identifier, COMPLIANCE_BLEND_PER_TICK, COMPLIANCE_FADE_STRAIN,
+    IDENTIFY_DEAD_BAND, IDENTIFY_RANGE, IDENTIFY_TICKS,
+};
+#[cfg(feature = "observer")]
+pub use lqg::{DesignOptions, ObserverState, MOVE_FADE_PER_TICK, MOVE_FADE_S};
 pub use lqg::{
     LqgGains, ASSUMED_STRAIN_NOISE, INTEGRAL_MAX_RATE_RAD_S, LQG_MODES, TORQUE_LOWPASS_ALPHA,
     TORQUE_LOWPASS_HZ,
 };
-#[cfg(feature = "observer")]
-pub use lqg::{ObserverState, MOVE_FADE_PER_TICK, MOVE_FADE_S};
 pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
 pub use smc::SmcGains;

@@ -34,31 +34,28 @@ gains! {
 
 #[cfg(feature = "observer")]
 impl LqgGains {
-    /// The design's weights, with a regulator of degree of stability `move_rate` (1/s, 0 for
-    /// none) while the reference moves and the encoder read at rest as its count's interval
-    /// if `count_interval` (`beam_model::lqg::LqgWeights`).
-    pub fn weights(&self, move_rate: f64, count_interval: bool) -> LqgWeights {
+    /// The design's weights with `options` (`beam_model::lqg::LqgWeights`).
+    pub fn weights(&self, options: DesignOptions) -> LqgWeights {
         LqgWeights {
             kp: self.kp as f64,
             kd: self.kd as f64,
             ki: self.ki as f64,
             kq: self.kq as f64,
             sigma_nm: self.sigma as f64,
-            move_rate,
-            count_interval,
+            move_rate: options.move_rate,
+            count_interval: options.count_interval,
+            identify: options.identify,
         }
     }
 
-    /// The law designed on `plant` from these weights and the two options of
-    /// [`LqgGains::weights`].
+    /// The law designed on `plant` from these weights with `options`.
     pub(super) fn build_with(
         &self,
         plain: ControlLaw,
         plant: &impl LawPlant,
-        move_rate: f64,
-        count_interval: bool,
+        options: DesignOptions,
     ) -> Result<ControlLaw, ParamError> {
-        let weights = self.weights(move_rate, count_interval);
+        let weights = self.weights(options);
         let design = plant
             .lqg(&weights, crate::DEFAULT_TS_S as f64)
             .ok_or(ParamError {
@@ -84,6 +81,19 @@ impl LqgGains {
             ..plain
         })
     }
+}
+
+/// What a law on the LQG design adds to the weights (`beam_model::lqg::LqgWeights`).
+#[cfg(feature = "observer")]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DesignOptions {
+    /// A regulator of this degree of stability while the reference moves, 1/s (0: none).
+    pub move_rate: f64,
+    /// The encoder read at rest as its count's interval.
+    pub count_interval: bool,
+    /// The beam's stiffness identified at the start of each move (with the `identify`
+    /// feature; `LqgDesign::id_a`).
+    pub identify: bool,
 }
 
 /// Flexible modes the LQG law observes and controls: the first two (see `LawPlant::lqg`).
@@ -125,7 +135,95 @@ pub struct ObserverState {
     /// How much of the moving regulator ([`LqgDesign::k_move`]) the feedback carries: 1 while
     /// the reference moves, then fading over [`MOVE_FADE_S`]; 0 before the first move.
     pub move_weight: f32,
+    /// What smc-modal's identifier found of the beam this move, and its state.
+    #[cfg(feature = "identify")]
+    pub adaptation: Adaptation,
 }
+
+/// What the identifier found of the beam this move ([`Identifier`]), as the observer and the
+/// feedback take it, and the identifier's own state.
+#[cfg(feature = "identify")]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Adaptation {
+    /// The identifier's beam and its fit, while the move's first [`IDENTIFY_TICKS`] run.
+    pub identifier: Identifier,
+    /// The beam's stiffness against the model's, less 1: moving to what the identifier
+    /// found for this move (0 until it has). The observer's prediction scales the modes'
+    /// restoring force by `1 + stiffness`.
+    pub stiffness: f32,
+    /// The beam's compliance against the model's, less 1, likewise: the feedback's
+    /// reference bends the beam by `1 + compliance` times the reference beam (below
+    /// [`COMPLIANCE_FADE_STRAIN`]).
+    pub compliance: f32,
+}
+
+/// The identifier's state ([`LqgDesign::id_a`]): the clamped modes `z = q + G theta`
+/// and their change per tick `v = ts z'` at the model's stiffness, their sensitivity to
+/// the beam's compliance `lambda` (`s`, `sv`, the same for `d q / d lambda`), and the
+/// least-squares sums of the gauge's reading against them.
+#[cfg(feature = "identify")]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Identifier {
+    /// `G = Mqq^-1 h`, m per rad ([`clamped_coupling`]).
+    pub g: [f32; DESIGN_MODES],
+    /// `z`, m.
+    pub z: [f32; DESIGN_MODES],
+    /// `ts z'`, m.
+    pub v: [f32; DESIGN_MODES],
+    /// `d z / d lambda`, m.
+    pub s: [f32; DESIGN_MODES],
+    /// `ts d z' / d lambda`, m.
+    pub sv: [f32; DESIGN_MODES],
+    /// The hub's angle last tick, rad.
+    pub theta: f32,
+    /// Sum of the gauge's misfit times the strain's sensitivity.
+    pub sum_misfit: f32,
+    /// Sum of the strain's sensitivity squared.
+    pub sum_sensitivity: f32,
+    /// Ticks run.
+    pub ticks: u32,
+    /// The compliance found, less 1 ([`Adaptation::compliance`] moves to it).
+    pub compliance: f32,
+    /// The stiffness found, less 1 ([`Adaptation::stiffness`] moves to it).
+    pub stiffness: f32,
+}
+
+/// How much of the way to what the identifier found the observer's stiffness and the
+/// feedback's reference move each tick, while the reference moves: over about 20 ms. Taken
+/// at once, the change was a step of up to 6 N m in the torque (to the 10 N m limit on 57
+/// of 200 beams at 180 deg), and the estimate's jump bent soft beams 10 % further.
+#[cfg(feature = "identify")]
+pub const COMPLIANCE_BLEND_PER_TICK: f32 = 0.05;
+
+/// The root strain of the observer's estimate over which the feedback's reference stops
+/// bending with the compliance found, strain: wholly below the first, not at all above the
+/// second. A soft beam let bend as far as it would on the model's move passed the 2000 ue
+/// bound at 180 deg (2100-2270 ue over seven sets of 200 beams); held to the model's
+/// reference past 1900 ue it stays within 1890-1960 (docs/results.md).
+#[cfg(feature = "identify")]
+pub const COMPLIANCE_FADE_STRAIN: [f32; 2] = [1.5e-3, 1.9e-3];
+
+/// How long the identifier runs from the start of a move, ticks (0.1 s at 1 kHz): long
+/// enough for the gauge to see the beam bend under the move's first acceleration, short
+/// enough that the hub has not yet turned fast enough to stiffen it.
+#[cfg(feature = "identify")]
+pub const IDENTIFY_TICKS: u32 = 100;
+
+/// The stiffness the identifier may find against the model's, as a factor: the beams the
+/// drive is designed for (EI and density each within 20 %, so their ratio within 2/3 to 3/2).
+/// A fit outside it (a gauge reading wrong) is held to it.
+#[cfg(feature = "identify")]
+pub const IDENTIFY_RANGE: [f32; 2] = [2.0 / 3.0, 1.5];
+
+/// A stiffness found within this of the model's is taken for the model's: the fit's own
+/// error. On the model's beam it finds 0.991-1.003, and 1-3 % high on beams 20 % off it
+/// (`cargo test -p beam-sim --test observer identifies`); a correction of a fraction of a
+/// percent moved the model's own 90 deg settle from 0.36 to 0.40-0.44 s, as its strain
+/// crossed the 5 ue band a second-mode period later.
+#[cfg(feature = "identify")]
+pub const IDENTIFY_DEAD_BAND: f32 = 0.02;
 
 /// How long the moving regulator ([`LqgDesign::k_move`]) fades over once the reference is at
 /// rest, s (the time constant): long enough to damp what the move left, short enough that
@@ -190,7 +288,7 @@ impl LawGains for LqgGains {
     ) -> Result<ControlLaw, ParamError> {
         #[cfg(feature = "observer")]
         {
-            self.build_with(plain, plant, 0.0, false)
+            self.build_with(plain, plant, DesignOptions::default())
         }
         #[cfg(not(feature = "observer"))]
         {
@@ -237,7 +335,7 @@ pub const INTEGRAL_MAX_RATE_RAD_S: f32 = 5.0;
 #[cfg(feature = "observer")]
 #[inline(always)]
 fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState, ts_s: f32) -> f32 {
-    let (mut u, _, pos) = observe(this, x, r, law);
+    let (mut u, _, pos) = observe::<false>(this, x, r, law);
     if libm::fabsf(r.vel) < INTEGRAL_MAX_RATE_RAD_S {
         law.integral = integrate(
             law.integral,
@@ -297,11 +395,16 @@ dot!(dot5, 5, 0 1 2 3 4);
 /// theta_ref)`: the feedforward less the state feedback and the feedback alone, N m, and
 /// the reference state's hub angle, rad.
 ///
+/// With `IDENTIFY` (and the `identify` feature), the identifier runs at the start of each
+/// move (`identify`, [`LqgDesign::id_a`]) and the
+/// observer and the feedback's reference take what it found; without, neither is compiled
+/// in (the lqg law, whose design carries no identifier).
+///
 /// Written out for [`DESIGN_MODES`] = 2 (the layout `[theta, q0, q1, theta', q0', q1']`): a
 /// design with another number of modes does not compile here.
 #[cfg(feature = "observer")]
 #[inline(always)]
-pub(super) fn observe(
+pub(super) fn observe<const IDENTIFY: bool>(
     this: &ControlLaw,
     x: &Estimate,
     r: &RefPoint,
@@ -324,9 +427,16 @@ pub(super) fn observe(
     // turned by the beam swinging on it), the feedforward, and the reference beam's next
     // state.
     let rb = state.reference;
-    let (rq, rdq) = ([rb[0], rb[1]], [rb[2], rb[3]]);
-    let pos = dot2(r.pos, &d.ref_hub, &rq);
-    let vel = dot2(r.vel, &d.ref_hub, &rdq);
+    let rq = [rb[0], rb[1]];
+    // The beam the feedback holds the hub and the modes to: the reference beam bent as much
+    // more as the beam identified is softer than the model (its compliance; 1 until found).
+    // The reference is smooth, so the beam follows it nearly statically and bends in
+    // proportion to its compliance; rerunning the reference beam on the beam identified
+    // would ring, as it was shaped on the model's.
+    let soft = softer::<IDENTIFY>(state);
+    let (tq, tdq) = ([soft * rb[0], soft * rb[1]], [soft * rb[2], soft * rb[3]]);
+    let pos = dot2(r.pos, &d.ref_hub, &tq);
+    let vel = dot2(r.vel, &d.ref_hub, &tdq);
     // The hub rate squared: the centrifugal term (minus the foreshortening) of the
     // reference beam, `Mf^-1 S w^2 q` in the modes' equations.
     let w2 = vel * vel;
@@ -347,6 +457,7 @@ pub(super) fn observe(
         state.move_weight *= MOVE_FADE_PER_TICK;
     } else {
         state.move_weight = 1.0;
+        adapt::<IDENTIFY>(d, x, state);
         unrolled!(i in [0 1 2 3] => {
             let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
             state.reference[i] = if i < DESIGN_MODES {
@@ -397,7 +508,7 @@ pub(super) fn observe(
     let q_est = [xo[1], xo[2]];
     // The update, and the state the feedback holds it to: the hub on its reference, the
     // beam as the reference beam is.
-    let reference = [pos, rq[0], rq[1], vel, rdq[0], rdq[1]];
+    let reference = [pos, tq[0], tq[1], vel, tdq[0], tdq[1]];
     let w = state.move_weight;
     let mut sigma = 0.0f32;
     macro_rules! update {
@@ -410,16 +521,177 @@ pub(super) fn observe(
         }};
     }
     unrolled!(i in [0 1 2] => { update!(i, head[i]) });
-    // The rates' rows, with the centrifugal term at the estimated hub rate.
+    // The rates' rows, with the centrifugal term at the estimated hub rate and the modes'
+    // restoring force scaled by the stiffness identified (`ad`'s entries there are `-ts
+    // M^-1 Kqq` to first order in the tick).
+    let stiff = stiffer::<IDENTIFY>(state);
+    let xk = [stiff * xo[1], stiff * xo[2], xo[3], xo[4], xo[5]];
     unrolled!(i in [3 4 5] => {
         update!(
             i,
-            dot5(d.bd[i] * u_last, &d.ad[i], &xt) + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
+            dot5(d.bd[i] * u_last, &d.ad[i], &xk) + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
         )
     });
     state.strain_estimate =
         d.strain_coef[0] * state.estimate[1] + d.strain_coef[1] * state.estimate[2];
     (u, sigma, pos)
+}
+
+/// The factor on the reference beam's bending the feedback holds the beam to: `1 +
+/// compliance` while the estimate's root strain is below [`COMPLIANCE_FADE_STRAIN`], fading
+/// to 1 across it. 1 without `IDENTIFY`.
+#[cfg(feature = "identify")]
+#[inline(always)]
+fn softer<const IDENTIFY: bool>(state: &ObserverState) -> f32 {
+    if !IDENTIFY {
+        return 1.0;
+    }
+    let bent = libm::fabsf(state.strain_estimate);
+    let [from, to] = COMPLIANCE_FADE_STRAIN;
+    let fade = if bent <= from {
+        1.0
+    } else if bent >= to {
+        0.0
+    } else {
+        (to - bent) * (1.0 / (COMPLIANCE_FADE_STRAIN[1] - COMPLIANCE_FADE_STRAIN[0]))
+    };
+    1.0 + fade * state.adaptation.compliance
+}
+
+/// The factor on the modes' restoring force in the observer's prediction: `1 + stiffness`,
+/// 1 without `IDENTIFY`.
+#[cfg(feature = "identify")]
+#[inline(always)]
+fn stiffer<const IDENTIFY: bool>(state: &ObserverState) -> f32 {
+    if IDENTIFY {
+        1.0 + state.adaptation.stiffness
+    } else {
+        1.0
+    }
+}
+
+/// A moving tick of the identification: the identifier's tick ([`identify`]), and the
+/// observer's stiffness and the feedback's compliance moved towards what it found, over
+/// [`COMPLIANCE_BLEND_PER_TICK`] (a step in either is a step in the torque). Nothing without
+/// `IDENTIFY`.
+#[cfg(feature = "identify")]
+#[inline(always)]
+fn adapt<const IDENTIFY: bool>(d: &LqgDesign, x: &Estimate, state: &mut ObserverState) {
+    if !IDENTIFY {
+        return;
+    }
+    let a = &mut state.adaptation;
+    let id = &mut a.identifier;
+    if let Some([stiffness, compliance]) = identify(d, x, id) {
+        id.stiffness = stiffness;
+        id.compliance = compliance;
+    }
+    a.stiffness += COMPLIANCE_BLEND_PER_TICK * (id.stiffness - a.stiffness);
+    a.compliance += COMPLIANCE_BLEND_PER_TICK * (id.compliance - a.compliance);
+}
+
+/// Without the `identify` feature the observer laws take the model as it is.
+#[cfg(all(feature = "observer", not(feature = "identify")))]
+#[inline(always)]
+fn softer<const IDENTIFY: bool>(_: &ObserverState) -> f32 {
+    1.0
+}
+
+/// See [`softer`].
+#[cfg(all(feature = "observer", not(feature = "identify")))]
+#[inline(always)]
+fn stiffer<const IDENTIFY: bool>(_: &ObserverState) -> f32 {
+    1.0
+}
+
+/// See [`softer`].
+#[cfg(all(feature = "observer", not(feature = "identify")))]
+#[inline(always)]
+fn adapt<const IDENTIFY: bool>(_: &LqgDesign, _: &Estimate, _: &mut ObserverState) {}
+
+/// `G = Mqq^-1 h`, how far the hub's angle moves the clamped modes' coordinates, m per rad,
+/// from the reference beam's numbers (a design carries no more for it): the hub-free modes'
+/// `P h = Mf^-1 h` from the input column's modes, `-ts^2/2 P h` to second order in the
+/// tick, `h = -Mtt ref_hub`, and `Mqq = Mf + h h' / Mtt` inverted by Sherman and Morrison:
+/// `G = P h Mtt / (Mtt + h' P h)`.
+#[cfg(feature = "identify")]
+#[inline(never)]
+pub fn clamped_coupling(d: &LqgDesign) -> [f32; DESIGN_MODES] {
+    const K: f32 = -2.0 / (crate::DEFAULT_TS_S * crate::DEFAULT_TS_S);
+    let ph = [K * d.ref_bd[0], K * d.ref_bd[1]];
+    let h = [-d.mtt * d.ref_hub[0], -d.mtt * d.ref_hub[1]];
+    let f = d.mtt / (d.mtt + dot2(0.0, &h, &ph));
+    [f * ph[0], f * ph[1]]
+}
+
+/// One tick of the identifier ([`LqgDesign::id_a`]) at the start of a move: the clamped
+/// modes driven by the measured hub angle, their sensitivity to the beam's compliance
+/// `lambda`, and the least-squares sums of the gauge against them. On the move's
+/// [`IDENTIFY_TICKS`]th tick, one Gauss-Newton step from the model, `lambda = 1 + sum(misfit
+/// sensitivity) / sum(sensitivity^2)`: returns the stiffness `1 / lambda` and the
+/// compliance `lambda`, each less 1, the stiffness within [`IDENTIFY_RANGE`]. `None` on
+/// every other tick, and for a design that does not identify.
+#[cfg(feature = "identify")]
+#[inline(always)]
+fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]> {
+    if id.ticks >= IDENTIFY_TICKS || d.id_a[0] == 0.0 {
+        return None;
+    }
+    let theta = x.theta;
+    if id.ticks == 0 {
+        // From rest: the modes unbent.
+        id.g = clamped_coupling(d);
+        id.z = [id.g[0] * theta, id.g[1] * theta];
+        id.theta = theta;
+    }
+    let g = id.g;
+    let q = [id.z[0] - g[0] * theta, id.z[1] - g[1] * theta];
+    let sensitivity = dot2(0.0, &d.strain_coef, &id.s);
+    id.sum_misfit += (x.strain - dot2(0.0, &d.strain_coef, &q)) * sensitivity;
+    id.sum_sensitivity += sensitivity * sensitivity;
+    // z'' = -Mqq^-1 (Kqq q / lambda + Cq q'), and its derivative at lambda = 1 (the
+    // damping's dependence on the stiffness left out), semi-implicit. `ts q' = ts z' - ts
+    // id_g theta'`, the hub's turn over the tick read from the encoder.
+    let (a, c) = (&d.id_a, &d.id_c);
+    let turn = theta - id.theta;
+    id.theta = theta;
+    let (aq, as_) = (
+        [a[0] * q[0] + a[1] * q[1], a[2] * q[0] + a[3] * q[1]],
+        [
+            a[0] * id.s[0] + a[1] * id.s[1],
+            a[2] * id.s[0] + a[3] * id.s[1],
+        ],
+    );
+    unrolled!(i in [0 1] => {
+        id.v[i] -= aq[i] + c[i] * (id.v[i] - g[i] * turn);
+        id.sv[i] += aq[i] - as_[i] - c[i] * id.sv[i];
+        id.z[i] += id.v[i];
+        id.s[i] += id.sv[i];
+    });
+    id.ticks += 1;
+    if id.ticks < IDENTIFY_TICKS || !(id.sum_sensitivity > 0.0) {
+        return None;
+    }
+    let lambda = 1.0 + id.sum_misfit / id.sum_sensitivity;
+    let [lo, hi] = IDENTIFY_RANGE;
+    let stiffness = if lambda.is_nan() {
+        1.0
+    } else if lambda * hi <= 1.0 {
+        hi
+    } else {
+        let k = 1.0 / lambda;
+        if k < lo {
+            lo
+        } else {
+            k
+        }
+    };
+    let stiffness = if libm::fabsf(stiffness - 1.0) < IDENTIFY_DEAD_BAND {
+        1.0
+    } else {
+        stiffness
+    };
+    Some([stiffness - 1.0, 1.0 / stiffness - 1.0])
 }
 
 /// The corner of the first-order low-pass on the observer laws' torque, Hz. The estimate

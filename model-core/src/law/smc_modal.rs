@@ -18,6 +18,8 @@
 //! is the LQR with its gain raised by `1 + Jeff A beta / K_rate`; outside, the LQR plus a
 //! bounded push of `Jeff A`. With `A = 0` it is the LQR without integral.
 
+#[cfg(feature = "observer")]
+use super::lqg::DesignOptions;
 use super::{gains, ControlLaw, Estimate, LawGains, LawPlant, LawState, LqgGains, Switching};
 use crate::beam::ParamError;
 #[cfg(feature = "observer")]
@@ -110,7 +112,15 @@ impl LawGains for SmcModalGains {
             let _ = point;
             let law = self
                 .design_weights()
-                .build_with(plain, plant, SMC_MODAL_MOVE_RATE, true)
+                .build_with(
+                    plain,
+                    plant,
+                    DesignOptions {
+                        move_rate: SMC_MODAL_MOVE_RATE,
+                        count_interval: true,
+                        identify: true,
+                    },
+                )
                 .map_err(|e| ParamError {
                     field: if e.field == "lqg" {
                         "smc-modal"
@@ -149,7 +159,8 @@ impl LawGains for SmcModalGains {
         #[cfg(feature = "observer")]
         {
             let d = &law.observer;
-            let (linear, sigma, _) = super::lqg::observe(law, x, r, state);
+            let (linear, sigma, _) =
+                super::lqg::observe::<{ cfg!(feature = "identify") }>(law, x, r, state);
             let s = sigma / d.k[super::lqg::RATE];
             let u = linear - d.jeff * self.a * self.switching.apply(self.beta * s);
             super::lqg::applied(state, u, d.torque_limit_nm)
