@@ -192,16 +192,17 @@ pub struct Identifier {
 
 /// How much of the way to what the identifier found the observer's stiffness and the
 /// feedback's reference move each tick, while the reference moves: over about 20 ms. Taken
-/// at once, the change was a step of up to 6 N m in the torque (to the 10 N m limit on 57
-/// of 200 beams at 180 deg), and the estimate's jump bent soft beams 10 % further.
+/// at once, the reference's change was a step of up to 6 N m in the torque (to the 10 N m
+/// limit on 57 of 200 beams at 180 deg), and the observer's bent soft beams further
+/// (1934-2024 ue at 180 deg over seven sets of 200 beams, against 1893-1964 ramped).
 #[cfg(feature = "identify")]
 pub const COMPLIANCE_BLEND_PER_TICK: f32 = 0.05;
 
 /// The root strain of the observer's estimate over which the feedback's reference stops
 /// bending with the compliance found, strain: wholly below the first, not at all above the
 /// second. A soft beam let bend as far as it would on the model's move passed the 2000 ue
-/// bound at 180 deg (2100-2270 ue over seven sets of 200 beams); held to the model's
-/// reference past 1900 ue it stays within 1890-1960 (docs/results.md).
+/// bound at 180 deg (2100-2210 ue over seven sets of 200 beams); held to the model's
+/// reference past 1900 ue it stays within 1895-1964 (docs/identification.md).
 #[cfg(feature = "identify")]
 pub const COMPLIANCE_FADE_STRAIN: [f32; 2] = [1.5e-3, 1.9e-3];
 
@@ -650,8 +651,8 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
     id.sum_misfit += (x.strain - dot2(0.0, &d.strain_coef, &q)) * sensitivity;
     id.sum_sensitivity += sensitivity * sensitivity;
     // z'' = -Mqq^-1 (Kqq q / lambda + Cq q'), and its derivative at lambda = 1 (the
-    // damping's dependence on the stiffness left out), semi-implicit. `ts q' = ts z' - ts
-    // id_g theta'`, the hub's turn over the tick read from the encoder.
+    // damping's dependence on the stiffness left out), semi-implicit. `ts q' = ts z' - G
+    // turn`, the hub's turn over the tick read from the encoder.
     let (a, c) = (&d.id_a, &d.id_c);
     let turn = theta - id.theta;
     id.theta = theta;
