@@ -194,7 +194,7 @@ pub struct Identifier {
 /// feedback's reference move each tick, while the reference moves: over about 20 ms. Taken
 /// at once, the reference's change was a step of up to 6 N m in the torque (to the 10 N m
 /// limit on 57 of 200 beams at 180 deg), and the observer's bent soft beams further
-/// (1934-2024 ue at 180 deg over seven sets of 200 beams, against 1893-1964 ramped).
+/// (1934-2024 ue at 180 deg over seven sets of 200 beams, against 1895-1964 ramped).
 #[cfg(feature = "identify")]
 pub const COMPLIANCE_BLEND_PER_TICK: f32 = 0.05;
 
