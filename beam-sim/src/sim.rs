@@ -369,7 +369,8 @@ pub fn simulate_mismatched<const N: usize>(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Known {
     /// An observer law's model of the beam: the observer's sampled dynamics, its centrifugal
-    /// term, its strain output and its identifier's beam.
+    /// term, its strain output and its identifier's beam (whose `G` the drive derives from
+    /// the reference beam's numbers, so it follows `reference`).
     pub observer: bool,
     /// The observer's Kalman gain.
     pub kalman: bool,
