@@ -11,16 +11,19 @@
 //! - [`plant`]: the model reduced to what the control laws and the planner read, at one
 //!   payload ([`plant::PlantPoint`]) and over a payload grid ([`plant::Plant`]).
 //! - [`linalg`]: the small dense linear algebra the model needs.
+//! - [`sqrt`]: the square root as the drive's FPU takes it.
 //! - [`lqg`]: the sampled linear model, a steady-state Kalman filter (the modal state
 //!   observer) and LQR state feedback with integral action.
 #![cfg_attr(not(test), no_std)]
-#![forbid(unsafe_code)]
+// Denied, not forbidden: `sqrt::sqrtf`'s one FPU instruction is the crate's only unsafe block.
+#![deny(unsafe_code)]
 
 pub mod beam;
 pub mod linalg;
 pub mod lqg;
 pub mod modal;
 pub mod plant;
+pub mod sqrt;
 
 /// The drive's torque limit, N m: the controller saturates at it, the amplifier's full scale
 /// equals it (so saturation never clips twice), and the presets' plant carries it.

@@ -229,7 +229,7 @@ impl Plant {
             if p < above.0 {
                 let f = (p - below.0) / (above.0 - below.0);
                 let (a, b) = (1.0 / (below.1 * below.1), 1.0 / (above.1 * above.1));
-                return Some(libm::sqrtf(1.0 / (a + (b - a) * f)));
+                return Some(crate::sqrt::sqrtf(1.0 / (a + (b - a) * f)));
             }
             below = above;
         }

@@ -280,7 +280,8 @@ fn far_angle_rad(count: i64, home_rad: f32, rate: FixedRate) -> f32 {
     // The home as `m 2^e` with an integer m of at most 24 bits (`frexpf`'s fraction, in
     // [0.5, 1), times 2^24 is exact).
     let (fraction, e) = libm::frexpf(home_rad);
-    let (m, e) = (libm::scalbnf(fraction, 24) as i128, e - 24);
+    // (Through an i32, which holds it: `f32 as i128` is a library routine on the drive.)
+    let (m, e) = (i128::from(libm::scalbnf(fraction, 24) as i32), e - 24);
     // At the rate's fixed point; bits below it are dropped (a home is a few radians, whose
     // last bit is far above 2^-60). Up to 2^100 it leaves the sum below 2^127 (a home within
     // 2^31 rad for any encoder); past that the sum is left to f32.
@@ -291,7 +292,21 @@ fn far_angle_rad(count: i64, home_rad: f32, rate: FixedRate) -> f32 {
         _ => m >> (-at).min(127),
     };
     let sum = i128::from(count) * i128::from(rate.mantissa) + home_fixed;
-    libm::scalbnf(sum as f32, -exp)
+    scaled_f32(sum, exp)
+}
+
+/// `sum 2^-exp` as the nearest `f32`: `libm::scalbnf(sum as f32, -exp)` without the drive's
+/// 128-bit conversion routine (0.25 KB). The top 63 bits of the magnitude, with a sticky bit
+/// for any below them, round to the same `f32` (the rounding falls 39 bits above the sticky
+/// bit, which only breaks what would otherwise be a tie), and are scaled back with the fixed
+/// point's exponent in one step.
+fn scaled_f32(sum: i128, exp: i32) -> f32 {
+    let magnitude = sum.unsigned_abs();
+    let shift = (128 - magnitude.leading_zeros()).saturating_sub(63);
+    let below = magnitude & ((1u128 << shift) - 1);
+    let top = (magnitude >> shift) as i64 | i64::from(below != 0);
+    let top = if sum < 0 { -(top as f32) } else { top as f32 };
+    libm::scalbnf(top, shift as i32 - exp)
 }
 
 /// First-order low-pass coefficient: `y += alpha (x - y)` with `alpha = 1 - exp(-2 pi fc Ts)`.
@@ -463,6 +478,32 @@ mod tests {
         for count in [i64::MAX, i64::MIN] {
             let a = angle_rad(count, 1.0, rate.to_f32(), rate);
             assert!(a.is_finite() && (a > 0.0) == (count > 0), "{count}: {a}");
+        }
+    }
+
+    proptest! {
+        /// The far angle's conversion is the one rounding of `sum as f32`, scaled: for sums
+        /// of every size below 2^127 (ties included: a low bit set far below the top) and
+        /// the fixed points the encoder rates use.
+        #[test]
+        fn the_far_sum_rounds_as_one_conversion(
+            bits in 0u32..127,
+            mantissa in any::<u128>(),
+            tie in any::<bool>(),
+            negative in any::<bool>(),
+            exp in 60i32..94,
+        ) {
+            let mut magnitude = (mantissa >> (128 - bits.max(1))) | (1u128 << bits);
+            if tie && bits > 30 {
+                // Exactly halfway between two f32s, then a hair above it.
+                magnitude = (magnitude >> (bits - 23)) << (bits - 23) | (1u128 << (bits - 24));
+                magnitude |= mantissa & 1;
+            }
+            let sum = if negative { -(magnitude as i128) } else { magnitude as i128 };
+            prop_assert_eq!(
+                scaled_f32(sum, exp).to_bits(),
+                libm::scalbnf(sum as f32, -exp).to_bits()
+            );
         }
     }
 

@@ -149,7 +149,7 @@ impl Limits {
         // With x = 1/s: i a x^2 + b v x - room <= 0, so x <= the positive root.
         let qa = i * a;
         let x = if qa > 0.0 {
-            (-b * v + libm::sqrtf(b * b * v * v + 4.0 * qa * room)) / (2.0 * qa)
+            (-b * v + beam_model::sqrt::sqrtf(b * b * v * v + 4.0 * qa * room)) / (2.0 * qa)
         } else if b * v > 0.0 {
             room / (b * v)
         } else {

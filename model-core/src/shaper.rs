@@ -69,7 +69,7 @@ impl Shaper {
             return Err(ShaperError::Damping);
         }
         // The damped period and the decay over half of it.
-        let root = libm::sqrtf(1.0 - zeta * zeta);
+        let root = beam_model::sqrt::sqrtf(1.0 - zeta * zeta);
         let period = 1.0 / (f * root);
         let k = libm::expf(-zeta * core::f32::consts::PI / root);
         let (amps, times, len) = match self.kind {

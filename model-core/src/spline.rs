@@ -301,7 +301,7 @@ fn peaks_of(segments: &[Segment], start: f32, end: f32) -> Peaks {
         if qa != 0.0 {
             let disc = qb * qb - 4.0 * qa * qc;
             if disc >= 0.0 {
-                let r = libm::sqrtf(disc);
+                let r = beam_model::sqrt::sqrtf(disc);
                 roots = [(-qb + r) / (2.0 * qa), (-qb - r) / (2.0 * qa)];
             }
         } else if qb != 0.0 {
