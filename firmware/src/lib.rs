@@ -39,10 +39,15 @@ pub const ALL_LAWS: DriveTable<'static> = DriveTable {
 /// The law the board runs (the table's `[drive]`).
 pub const CONTROLLER: LawKind = DRIVE.law;
 /// The laws this build holds: with `drive-law-only` (the board, `cargo fw`) its law alone, so
-/// the others' code is not in the binary and a command for another is refused; else every
-/// law. Passed to the core as a const generic (`ControlLaw::try_build_in`, `Drive::tick_in`).
+/// the others' code is not in the binary and a command for another is refused, and the tanh
+/// switching function only if one of the law's rows switches by it; else every law. Passed
+/// to the core as a const generic (`ControlLaw::try_build_in`, `Drive::tick_in`).
 pub const LAWS: LawSet = if cfg!(feature = "drive-law-only") {
-    model_core::law::only(CONTROLLER)
+    if model_core::table::any_switches_by_tanh(TABLE.rows) {
+        model_core::law::only(CONTROLLER)
+    } else {
+        model_core::law::without_tanh(model_core::law::only(CONTROLLER))
+    }
 } else {
     model_core::law::ALL_LAWS
 };

@@ -176,19 +176,35 @@ pub type LawSet = u8;
 /// Every law.
 pub const ALL_LAWS: LawSet = LawSet::MAX;
 
-/// The set of law `kind` alone.
+/// The set's bit past the laws' own: the sliding-mode laws' tanh switching function
+/// ([`Switching::Tanh`]). libm's `tanhf` and the `expm1f` it calls are 0.6 KB of the drive's
+/// flash, which a board whose rows all switch otherwise (smc-modal's `sat`) leaves out
+/// ([`without_tanh`]); a law that asks for tanh is then refused when it is built, as a law
+/// not built in is.
+pub const TANH_SWITCHING: LawSet = 1 << (LawSet::BITS - 1);
+
+/// The set of law `kind` alone, with every switching function.
 pub const fn only(kind: LawKind) -> LawSet {
-    1 << kind as u8
+    law_bit(kind) | TANH_SWITCHING
+}
+
+/// `laws` without the tanh switching function ([`TANH_SWITCHING`]).
+pub const fn without_tanh(laws: LawSet) -> LawSet {
+    laws & !TANH_SWITCHING
 }
 
 /// Whether the set `laws` holds law `kind`. A constant wherever `kind` is, so the dispatch
 /// below drops the other laws' arms.
 pub const fn holds(laws: LawSet, kind: LawKind) -> bool {
-    laws & only(kind) != 0
+    laws & law_bit(kind) != 0
 }
 
-// A bit per law.
-const _: () = assert!(LawKind::ALL.len() <= LawSet::BITS as usize);
+const fn law_bit(kind: LawKind) -> LawSet {
+    1 << kind as u8
+}
+
+// A bit per law, below the switching's.
+const _: () = assert!(LawKind::ALL.len() < LawSet::BITS as usize);
 
 /// Makes [`Law`]'s constructors and dispatch from the list of laws.
 macro_rules! laws {
@@ -274,7 +290,12 @@ macro_rules! laws {
                 state: &mut LawState,
                 ts_s: f32,
             ) -> f32 {
-                let (v, s) = (self.values, self.settings);
+                let (v, mut s) = (self.values, self.settings);
+                // Without tanh in the set no law here switches by it (`try_build_in` refused
+                // it); saying so lets the switching's tanh arm, and libm's tanhf, go.
+                if LAWS & TANH_SWITCHING == 0 && s.switching == Switching::Tanh {
+                    s.switching = Switching::Sat;
+                }
                 match self.kind {
                     $(
                         LawKind::$kind if const { holds(LAWS, LawKind::$kind) } => {
@@ -336,6 +357,21 @@ impl Law {
     /// The law's settings (those it does not have at their defaults).
     pub const fn settings(&self) -> Settings {
         self.settings
+    }
+
+    /// Whether the law switches by tanh ([`TANH_SWITCHING`]): it has a switching function
+    /// and it is [`Switching::Tanh`] (the setting's default, which a law without one carries
+    /// unused).
+    pub const fn switches_by_tanh(&self) -> bool {
+        let settings = self.kind.settings();
+        let mut i = 0;
+        while i < settings.len() {
+            if matches!(settings[i], Setting::Switching) {
+                return matches!(self.settings.switching, Switching::Tanh);
+            }
+            i += 1;
+        }
+        false
     }
 
     /// This law with its settings and other gain values, in the specs' order (zero past
@@ -490,8 +526,16 @@ impl ControlLaw {
             #[cfg(feature = "observer")]
             observer: lqg::NO_OBSERVER,
         };
-        // Every gain's sign, by the law's spec; then what the law needs of the plant.
+        // Every gain's sign, by the law's spec; then what the law needs of the plant (or
+        // the switching function it asks for, where the build left tanh out: "`tanh` is not
+        // built into this drive").
         law.check()?;
+        if LAWS & TANH_SWITCHING == 0 && law.switches_by_tanh() {
+            return Err(ParamError {
+                field: Switching::Tanh.name(),
+                kind: ParamErrorKind::NotBuiltIn,
+            });
+        }
         law.build::<LAWS>(plain, &point, &plant)
     }
 
@@ -661,6 +705,61 @@ pub(crate) mod tests {
                 ControlLaw::try_build(Law::start(kind), point).is_ok(),
                 "{kind}"
             );
+        }
+    }
+
+    /// Built without the tanh switching function (a board none of whose rows switches by
+    /// it), a law that asks for tanh is refused by the function's name, the same law with
+    /// `sat` builds, and it gives the very torque the build with every switching function
+    /// gives; the laws without a switching function carry tanh as an unused default and
+    /// build.
+    #[test]
+    fn a_drive_built_without_tanh_refuses_it_and_runs_the_rest_alike() {
+        const SET: LawSet = without_tanh(only(LawKind::Smc));
+        let point = PlantPoint::of(&model());
+        let tanh = Law::Smc(GAINS);
+        assert!(tanh.switches_by_tanh());
+        let e = ControlLaw::try_build_in::<SET>(tanh, point).unwrap_err();
+        assert_eq!((e.field, e.kind), ("tanh", ParamErrorKind::NotBuiltIn));
+        let sat = Law::Smc(SmcGains {
+            switching: Switching::Sat,
+            ..GAINS
+        });
+        let without = ControlLaw::try_build_in::<SET>(sat, point).unwrap();
+        let with = ControlLaw::try_build_in::<{ only(LawKind::Smc) }>(sat, point).unwrap();
+        let x = Estimate {
+            theta: 0.3,
+            omega: -1.2,
+            strain: 2e-4,
+            ..Estimate::default()
+        };
+        let r = RefPoint {
+            pos: 0.5,
+            vel: 2.0,
+            acc: -30.0,
+        };
+        let torque = |law: &ControlLaw, laws_hold_tanh: bool| {
+            let mut state = LawState::default();
+            if laws_hold_tanh {
+                law.torque_nm_in::<{ only(LawKind::Smc) }>(&x, &r, &mut state, 1e-3)
+            } else {
+                law.torque_nm_in::<SET>(&x, &r, &mut state, 1e-3)
+            }
+        };
+        assert_eq!(
+            torque(&without, false).to_bits(),
+            torque(&with, true).to_bits()
+        );
+        assert!(torque(&with, true) != 0.0);
+        for kind in [LawKind::Pd, LawKind::PdFf] {
+            assert!(!Law::start(kind).switches_by_tanh());
+            let set = without_tanh(ALL_LAWS);
+            assert!(ControlLaw::try_build_in::<{ without_tanh(ALL_LAWS) }>(
+                Law::start(kind),
+                point
+            )
+            .is_ok());
+            assert!(holds(set, kind));
         }
     }
 

@@ -36,6 +36,19 @@ pub struct GainRow {
     pub shaper: Shaper,
 }
 
+/// Whether any of `rows` switches by tanh ([`Law::switches_by_tanh`]): a board none of
+/// whose rows does leaves tanh out of its law set ([`crate::law::without_tanh`]).
+pub const fn any_switches_by_tanh(rows: &[GainRow]) -> bool {
+    let mut i = 0;
+    while i < rows.len() {
+        if rows[i].law.switches_by_tanh() {
+            return true;
+        }
+        i += 1;
+    }
+    false
+}
+
 /// Why the drive's configuration could not be built for a payload.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
