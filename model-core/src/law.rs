@@ -165,22 +165,23 @@ pub trait LawGains: GainLayout {
     ) -> f32;
 }
 
-/// A set of laws, a bit per [`LawKind`] (by its discriminant): which laws a build holds. The
-/// host holds them all ([`ALL_LAWS`]); a board holds its table's law alone
-/// ([`only`]`(kind)`), passed down as a const generic (`ControlLaw::try_build_in`,
-/// `Controller::step_in`), so the other laws' arms are dropped from the dispatch and their
-/// code is not in its binary. A law not in the set is refused when it is built
-/// ([`ParamErrorKind::NotBuiltIn`]).
+/// A set of laws, a bit per [`LawKind`] (by its discriminant), and one for the tanh
+/// switching function ([`TANH_SWITCHING`]): which laws a build holds, and whether it can
+/// switch by tanh. The host holds them all ([`ALL_LAWS`]); a board holds its table's law
+/// alone ([`only`]`(kind)`, less tanh where its rows do not use it), passed down as a const
+/// generic (`ControlLaw::try_build_in`, `Controller::step_in`), so the other laws' arms are
+/// dropped from the dispatch and their code is not in its binary. A law not in the set is
+/// refused when it is built ([`ParamErrorKind::NotBuiltIn`]).
 pub type LawSet = u8;
 
 /// Every law.
 pub const ALL_LAWS: LawSet = LawSet::MAX;
 
 /// The set's bit past the laws' own: the sliding-mode laws' tanh switching function
-/// ([`Switching::Tanh`]). libm's `tanhf` and the `expm1f` it calls are 0.6 KB of the drive's
-/// flash, which a board whose rows all switch otherwise (smc-modal's `sat`) leaves out
-/// ([`without_tanh`]); a law that asks for tanh is then refused when it is built, as a law
-/// not built in is.
+/// ([`Switching::Tanh`]). libm's `tanhf` and the `expm1f` it calls are 0.7 KB of the drive's
+/// flash (736 B on the smc-modal board), which a board whose rows all switch otherwise
+/// (smc-modal's `sat`) leaves out ([`without_tanh`]); a law that asks for tanh is then
+/// refused when it is built, as a law not built in is.
 pub const TANH_SWITCHING: LawSet = 1 << (LawSet::BITS - 1);
 
 /// The set of law `kind` alone, with every switching function.
