@@ -40,9 +40,10 @@ pub fn sqrtf(x: f32) -> f32 {
 mod tests {
     use super::sqrtf;
 
-    /// On the host this is libm's root; the same test under the drive's target (the PIL
-    /// drive's planner) is what the bit-identity runs check. Against `f64`'s root rounded
-    /// once: exact squares, the ends of the range and the planner's usual magnitudes.
+    /// On the host this is libm's root, against `f64`'s root rounded once: exact squares,
+    /// the ends of the range and the planner's usual magnitudes. The FPU's root is not run
+    /// here; the PIL runs check it, through the planner's moves, as torques bit-identical
+    /// to the host's.
     #[test]
     fn the_root_is_correctly_rounded() {
         for x in [
