@@ -212,7 +212,8 @@ fn point_source(q: &PlantPoint) -> String {
     format!(
         "::model_core::plant::PlantPoint {{ payload_kg: {:?}, torque_limit_nm: {:?}, \
          viscous_nms: {:?}, coulomb_nm: {:?}, mtt: {:?}, jeff: {:?}, root_strain_coef: {:?}, \
-         minv_h: {:?}, minv_e: {:?}, kqq_col0: {:?}, cq_col0: {:?}, s_col0: {:?} }}",
+         minv_h: {:?}, minv_e: {:?}, kqq_col0: {:?}, cq_col0: {:?}, s_col0: {:?}, \
+         strain_per_acc: {:?} }}",
         q.payload_kg,
         q.torque_limit_nm,
         q.viscous_nms,
@@ -224,7 +225,8 @@ fn point_source(q: &PlantPoint) -> String {
         q.minv_e,
         q.kqq_col0,
         q.cq_col0,
-        q.s_col0
+        q.s_col0,
+        q.strain_per_acc
     )
 }
 
@@ -261,7 +263,7 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
     out.push_str(&format!(
         "    modes: {},\n    base: {},\n    arm_m: {:?},\n    damping_ratio: {:?},\n    h: {:?},\n    \
          tip_shape: {:?},\n    tip_minv: {:?},\n    s_col0_per_kg: {:?},\n    mqq00: {:?},\n    \
-         first_hz: &{:?},\n}};\n",
+         strain_per_acc_per_kg: {:?},\n    first_hz: &{:?},\n}};\n",
         plant.modes,
         point_source(&plant.base),
         plant.arm_m,
@@ -271,6 +273,7 @@ pub(crate) fn generate_plant(parts: &PlantParts) -> String {
         plant.tip_minv,
         plant.s_col0_per_kg,
         plant.mqq00,
+        plant.strain_per_acc_per_kg,
         parts.first_hz
     ));
     out
@@ -283,7 +286,12 @@ mod tests {
     /// The largest relative difference between two points' numbers.
     fn rel_diff(a: &PlantPoint, b: &PlantPoint) -> f64 {
         assert_eq!(a.payload_kg, b.payload_kg);
-        let scalars = [(a.mtt, b.mtt), (a.jeff, b.jeff)].map(|(x, y)| (x as f64, y as f64));
+        let scalars = [
+            (a.mtt, b.mtt),
+            (a.jeff, b.jeff),
+            (a.strain_per_acc, b.strain_per_acc),
+        ]
+        .map(|(x, y)| (x as f64, y as f64));
         let vectors = [
             (a.root_strain_coef, b.root_strain_coef),
             (a.minv_h, b.minv_h),

@@ -139,6 +139,9 @@ pub trait LawGains: GainLayout {
     /// How many of the beam's first clamped periods a planned move lasts at least, when
     /// the planner picks its time; 0 for no floor ([`Law::min_move_periods`]).
     const MIN_MOVE_PERIODS: f32 = 0.0;
+    /// The root strain the planner holds the law's shortest moves within, on the beam bent
+    /// statically by the move's peak acceleration; 0 for none ([`Law::planned_strain`]).
+    const PLANNED_STRAIN: f32 = 0.0;
 
     /// What the law needs of the plant, folded into `plain` (the law on `point` with Jeff
     /// as its inertia and Mtt as the rigid inertia, the gains' signs checked). The default
@@ -259,6 +262,14 @@ macro_rules! laws {
             pub const fn min_move_periods(&self) -> f32 {
                 match self.kind {
                     $( LawKind::$kind => <$gains as LawGains>::MIN_MOVE_PERIODS, )+
+                }
+            }
+
+            /// The root strain the planner holds a move within when it picks its time
+            /// ([`crate::Limits::strain_budget`]), strain; 0 for none.
+            pub const fn planned_strain(&self) -> f32 {
+                match self.kind {
+                    $( LawKind::$kind => <$gains as LawGains>::PLANNED_STRAIN, )+
                 }
             }
 

@@ -54,6 +54,16 @@ pub struct Limits {
     /// through the move ([`Law::min_move_periods`]), a move much shorter than the beam's
     /// first period settles later over beams off the model.
     pub min_segment_s: f32,
+    /// The root strain the planner's shortest moves are held within, strain (0, a negative
+    /// value or NaN: none): the base move's peak acceleration times
+    /// [`Limits::strain_per_acc`], the beam bent statically by it. Like
+    /// [`Limits::min_segment_s`] it bounds only the times the planner chooses; a move given
+    /// its times is the caller's to judge. Set by a law that asks for it
+    /// ([`Law::planned_strain`]).
+    pub strain_budget: f32,
+    /// Root strain per unit hub acceleration of the plant, the beam bent statically
+    /// ([`PlantPoint::strain_per_acc`]), strain per rad/s^2.
+    pub strain_per_acc: f32,
 }
 
 impl Limits {
@@ -80,12 +90,15 @@ impl Limits {
             coulomb_nm: p.coulomb_nm,
             viscous_nms: p.viscous_nms,
             min_segment_s: 0.0,
+            strain_budget: 0.0,
+            strain_per_acc: p.strain_per_acc,
         }
     }
 
-    /// [`Limits::for_plant`] with the shortest segment `law` asks for on that model: its
-    /// [`Law::min_move_periods`] of the first clamped period. (On a modal model: a drive's
-    /// drive's plant does not carry the frequency, and its laws ask for no floor.)
+    /// [`Limits::for_plant`] with what `law` asks of the planner on that model: the shortest
+    /// segment, its [`Law::min_move_periods`] of the first clamped period, and its strain
+    /// budget ([`Law::planned_strain`]). (On a modal model: a drive's plant does not carry
+    /// the frequency; its table adds the floor, `DriveTable::configure`.)
     pub fn for_law<const N: usize>(model: &ModalModel<N>, law: &Law) -> Self {
         let periods = law.min_move_periods() as f64;
         let hz = model.clamped_hz.first().copied().unwrap_or(0.0);
@@ -95,6 +108,7 @@ impl Limits {
             } else {
                 0.0
             },
+            strain_budget: law.planned_strain(),
             ..Self::for_plant(model)
         }
     }
@@ -140,8 +154,8 @@ impl Limits {
     }
 
     /// The least time scale `s` (times multiplied by `s`) at which a move with peaks `p` at
-    /// scale 1 keeps the torque and speed limits: `I A / s^2 + b V / s + C <= F` and
-    /// `V / s <= Vmax`.
+    /// scale 1 keeps the torque and speed limits and the strain budget: `I A / s^2 + b V / s
+    /// + C <= F`, `V / s <= Vmax` and `g A / s^2 <= E`.
     fn least_scale(&self, p: &Peaks) -> f32 {
         let (a, v) = (p.max_abs_acc, p.max_abs_vel);
         let (i, b) = (self.inertia_kgm2, self.viscous_nms);
@@ -157,7 +171,14 @@ impl Limits {
         };
         let by_torque = 1.0 / x;
         let by_speed = v / self.max_speed_rad_s;
-        by_torque.max(by_speed)
+        // (0, a negative budget or NaN: none.)
+        let budget = self.strain_budget;
+        let by_strain = if budget > 0.0 {
+            beam_model::sqrt::sqrtf(a * libm::fabsf(self.strain_per_acc) / budget)
+        } else {
+            0.0
+        };
+        by_torque.max(by_speed).max(by_strain)
     }
 }
 
@@ -616,6 +637,61 @@ mod tests {
         assert!(i * a1 + b * 1.875 * d as f64 / t1 + c > f);
         // It is the minimum-jerk quintic: position halfway at half time.
         assert!((plan.eval(plan.duration_s() / 2.0).pos - d / 2.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_strain_budget_slows_only_the_moves_that_would_pass_it() {
+        // The quintic's peak acceleration, 10/sqrt(3) D/T^2, bends the beam statically by
+        // `strain_per_acc` times it: with a budget, the shortest T keeps that within the
+        // budget and one millisecond less would not. The aluminium beam bends 7.2 ue per
+        // rad/s^2 (three modes), so the torque-limited 45 deg move (221 rad/s^2, about
+        // 1590 ue) passes a budget of 1000 ue, and the speed-limited 180 deg move (207
+        // rad/s^2) keeps within 1600 ue.
+        let free = limits();
+        let budget = 1.0e-3;
+        let held = Limits {
+            strain_budget: budget,
+            ..free
+        };
+        let g = held.strain_per_acc.abs() as f64;
+        assert!(g > 7.0e-6 && g < 7.4e-6, "{g}");
+        let time = |l: &Limits, deg: f32| {
+            plan_move(0.0, deg * DEG, None, &Shaper::NONE, l)
+                .unwrap()
+                .shaped
+                .duration_s() as f64
+        };
+        let d = 45.0 * DEG as f64;
+        let strain = |t: f64| g * 10.0 / 3f64.sqrt() * d / (t * t);
+        let t = time(&held, 45.0);
+        assert!(t > time(&free, 45.0));
+        assert!(strain(t) <= budget as f64 * (1.0 + 1e-6), "{}", strain(t));
+        assert!(strain(t - 1e-3) > budget as f64, "{}", strain(t - 1e-3));
+        let loose = Limits {
+            strain_budget: 1.6e-3,
+            ..free
+        };
+        assert_eq!(time(&loose, 180.0), time(&free, 180.0));
+        // No budget: 0, a negative value or NaN.
+        for none in [0.0, -1.0, f32::NAN] {
+            let l = Limits {
+                strain_budget: none,
+                ..free
+            };
+            assert_eq!(time(&l, 45.0), time(&free, 45.0));
+        }
+        // smc-modal asks for 1500 ue; the laws without a faster moving regulator for none.
+        let m: ModalModel<3> =
+            ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap();
+        for &kind in crate::law::LawKind::ALL {
+            let l = Limits::for_law(&m, &Law::start(kind));
+            let expect = if kind == crate::law::LawKind::SmcModal {
+                1.5e-3
+            } else {
+                0.0
+            };
+            assert_eq!(l.strain_budget, expect, "{kind:?}");
+        }
     }
 
     #[test]

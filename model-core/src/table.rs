@@ -212,8 +212,8 @@ impl<'t> DriveTable<'t> {
 
     /// What a command handler runs law `kind` with at `payload_kg`: the law
     /// ([`DriveTable::build_law_in`], in the build's law set `LAWS`), its shaper and the
-    /// planner's limits (with the observer laws' floor on a move's length, a number of the
-    /// beam's first periods there).
+    /// planner's limits (with what the observer laws ask of the planner: a floor on a
+    /// move's length, a number of the beam's first periods there, and a strain budget).
     pub fn configure<const LAWS: LawSet>(
         &self,
         kind: LawKind,
@@ -223,8 +223,8 @@ impl<'t> DriveTable<'t> {
         let point = self.plant.at(payload_kg).ok_or(SetupError::Payload)?;
         #[allow(unused_mut)]
         let mut limits = Limits::for_plant(point);
-        // Only the observer laws ask for a floor (the board, built without them, has no flash
-        // to spare for this).
+        // Only the observer laws ask for a floor or a strain budget (the board built without
+        // them has no flash to spare for this).
         #[cfg(feature = "observer")]
         {
             let periods = law.law().min_move_periods();
@@ -233,6 +233,7 @@ impl<'t> DriveTable<'t> {
                     limits.min_segment_s = periods / hz;
                 }
             }
+            limits.strain_budget = law.law().planned_strain();
         }
         Ok((law, self.shaper(kind, payload_kg), limits))
     }

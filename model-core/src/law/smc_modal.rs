@@ -56,16 +56,18 @@ pub const SMC_MODAL_KD: f32 = 1.0;
 /// The degree of stability of the regulator the law runs while the reference moves and for
 /// a while after it stops (`law::MOVE_FADE_S`, with the `observer` feature), 1/s
 /// (`beam_model::lqg::LqgWeights::move_rate`): every closed-loop pole of the nominal model
-/// left of -5 1/s.
+/// left of -12 1/s.
 ///
 /// The surface's own regulator leaves a pair of poles at about -11 +- 20j 1/s (3.6 Hz,
 /// damping 0.47): the hub creeps into its band after a move and a beam off the model rings
-/// slowly through the tail. Designed with this degree of stability on the same weights, that
-/// pair moves to about -17 1/s; over 200 beams 20 % off the model the p95 fell at every move
-/// length on three seeds, and the nominal settle too (docs/results.md). Faster (8-35 1/s)
-/// loses beams off the model: the observer runs the nominal model, and a loop that fast
-/// follows its errors (with the true state fed, 15 1/s held the 180 deg p95 to 0.67 s).
-pub const SMC_MODAL_MOVE_RATE: f64 = 5.0;
+/// slowly through the tail. Before the drive identified the beam's stiffness, 5 1/s was as
+/// fast as beams 20 % off the model allowed (at 8-35 1/s the observer's nominal model lost
+/// 1-88 of 200). With the identifier, over 200 such beams on seven seeds, 12 1/s took the
+/// p95 down at every move length (at 180 deg 0.81-0.89 s -> 0.70-0.72 s,
+/// docs/identification.md). The faster loop bends soft, heavy beams further (2041-2123 ue at
+/// 180 deg without the strain budget, [`SmcModalGains::PLANNED_STRAIN`]); at 14-15 1/s the
+/// 90 deg p95 grew again (0.59-0.64 s against 0.58-0.61 s).
+pub const SMC_MODAL_MOVE_RATE: f64 = 12.0;
 
 impl SmcModalGains {
     /// The LQG weights the surface and the observer are designed from.
@@ -97,6 +99,13 @@ impl LawGains for SmcModalGains {
 
     /// As the LQG law: its feedforward bends the reference beam through the move.
     const MIN_MOVE_PERIODS: f32 = LqgGains::MIN_MOVE_PERIODS;
+
+    /// 1500 ue: the planner slows a move whose base peak acceleration would bend the
+    /// model's beam past it statically (a heavy payload's, and the torque-limited 45 and 90
+    /// deg moves at 0 g by 2-3 %), so that a beam 20 % softer and heavier than the model,
+    /// under the faster moving regulator ([`SMC_MODAL_MOVE_RATE`]), stays within 2000 ue
+    /// (at most 1834 ue over seven seeds of 200 beams; docs/identification.md).
+    const PLANNED_STRAIN: f32 = 1.5e-3;
 
     /// The LQG design for [`SmcModalGains::design_weights`], refused where the LQG law's is
     /// and when the surface has no hub rate in it (`K_rate <= 0`).
