@@ -102,7 +102,7 @@ impl LawGains for SmcModalGains {
 
     /// 1500 ue: the planner slows a move whose base peak acceleration would bend the
     /// model's beam past it statically (a heavy payload's, and the torque-limited 45 and 90
-    /// deg moves at 0 g by 2-3 %), so that a beam 20 % softer and heavier than the model,
+    /// deg moves at 0 g by 2 %), so that a beam 20 % softer and heavier than the model,
     /// under the faster moving regulator ([`SMC_MODAL_MOVE_RATE`]), stays within 2000 ue
     /// (at most 1834 ue over seven seeds of 200 beams; docs/identification.md).
     const PLANNED_STRAIN: f32 = 1.5e-3;
