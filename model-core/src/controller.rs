@@ -114,9 +114,16 @@ impl FaultFlags {
     /// The board's crystal did not start: it runs on its internal oscillator, whose
     /// frequency is not good enough to drive on. Latched again every tick: torque stays off.
     pub const CLOCK: FaultFlags = FaultFlags(1 << 10);
+    /// An observer law's loop rang at rest: the torque swung to a limit from the other side
+    /// of zero, tick after tick, until the gauge's residual passed [`GAUGE_RESIDUAL`] (see
+    /// [`RING_STEP`](crate::law::RING_STEP)): the beam has a mode the observer does not
+    /// model and the gauge sees. Handled as [`FaultFlags::GAUGE`] is: under torque not a
+    /// stop, the move and the hold go on on the drive's own law, which reads the encoder
+    /// alone, and no move is taken until it is cleared.
+    pub const RINGING: FaultFlags = FaultFlags(1 << 11);
 
     /// Names for display, in bit order.
-    const NAMES: [&'static str; 11] = [
+    const NAMES: [&'static str; 12] = [
         "non-finite",
         "adc-rail",
         "encoder-jump",
@@ -128,6 +135,7 @@ impl FaultFlags {
         "out-of-range",
         "gauge",
         "clock",
+        "ringing",
     ];
 
     /// True when no fault is set.

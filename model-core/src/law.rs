@@ -41,8 +41,8 @@ pub use lqg::{
 #[cfg(feature = "observer")]
 pub use lqg::{DesignOptions, ObserverState, MOVE_FADE_PER_TICK, MOVE_FADE_S};
 pub use lqg::{
-    LqgGains, ASSUMED_STRAIN_NOISE, INTEGRAL_MAX_RATE_RAD_S, LQG_MODES, TORQUE_LOWPASS_ALPHA,
-    TORQUE_LOWPASS_HZ,
+    LqgGains, ASSUMED_STRAIN_NOISE, INTEGRAL_MAX_RATE_RAD_S, LQG_MODES, RING_STEP,
+    TORQUE_LOWPASS_ALPHA, TORQUE_LOWPASS_HZ,
 };
 pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
@@ -639,6 +639,46 @@ pub(crate) mod tests {
     fn the_moving_regulators_fade_is_its_time_constant_at_the_drives_tick() {
         let step = libm::exp(-(crate::DEFAULT_TS_S as f64) / MOVE_FADE_S as f64);
         assert!((step - MOVE_FADE_PER_TICK as f64).abs() < 1e-7, "{step}");
+    }
+
+    #[cfg(feature = "observer")]
+    #[test]
+    fn only_a_torque_from_one_limit_to_the_other_at_rest_counts_as_a_ring() {
+        let limit = 10.0;
+        // From `last` applied, with the moving regulator's weight `w`, the command `u`:
+        // what it adds to the gauge's residual, and whether it marks the move.
+        let tick = |w: f32, last: f32, u: f32| {
+            let mut law = LawState::default();
+            law.lqg.move_weight = w;
+            law.lqg.applied_nm = last;
+            let out = lqg::applied(&mut law, u, limit);
+            assert!(out.is_finite());
+            (law.lqg.residual_strain, law.lqg.rang, law.lqg.applied_nm)
+        };
+        // At rest (the moving regulator fading): from one limit past the other, both ways.
+        assert_eq!(tick(0.5, -limit, 100.0), (RING_STEP, true, limit));
+        assert_eq!(tick(0.0, 0.1, -100.0), (RING_STEP, true, -limit));
+        // Not while the reference moves: a move may ask for the limit, and that is the
+        // planner's and the feedback's business.
+        assert_eq!(tick(1.0, -limit, 100.0), (0.0, false, limit));
+        // Not at one limit on and on (a blocked hub, a load), nor a swing within the limit.
+        assert_eq!(tick(0.5, limit, 100.0), (0.0, false, limit));
+        assert_eq!(
+            tick(0.5, -limit, limit / TORQUE_LOWPASS_ALPHA - limit).0,
+            0.0
+        );
+        // From just below zero the low-pass reaches the limit only on a command of at least
+        // `limit / alpha` (13.9 N m): a jump no move or hold of the shipped laws asks for.
+        assert!(!tick(0.5, -1e-3, 13.0).1);
+        assert!(tick(0.5, -1e-3, 14.0).1);
+        // The residual falls by `1 / RESIDUAL_TICKS` a tick: one such tick stays under the
+        // monitor's bound, three on end pass it.
+        let (bound, keep) = (
+            crate::controller::GAUGE_RESIDUAL,
+            1.0 - 1.0 / lqg::RESIDUAL_TICKS,
+        );
+        assert!(RING_STEP < bound);
+        assert!(RING_STEP * (1.0 + keep + keep * keep) > bound);
     }
 
     #[test]

@@ -24,10 +24,12 @@ pub const ENCODER_RESIDUAL: f32 = 20e-3;
 
 /// The sensor monitor of the observer laws: what their observer makes of the sensors this
 /// tick (zero residuals for the laws without one, which pass). A residual past its bound is
-/// blamed on the encoder when the encoder has not counted for 5 ticks while the reference
-/// moves (a stuck encoder: [`FaultFlags::ENCODER_STUCK`]), on the gauge otherwise
-/// ([`FaultFlags::GAUGE`]); and the beam's strain as the observer estimates it, whatever the
-/// gauge says, is held to the trip ([`FaultFlags::OVER_STRAIN`]).
+/// blamed on the loop when the torque has swung to a limit from the other side of zero at
+/// rest this move (it rang: [`FaultFlags::RINGING`]), on the encoder when the encoder has
+/// not counted for 5 ticks while the reference moves (a stuck encoder:
+/// [`FaultFlags::ENCODER_STUCK`]), on the gauge otherwise ([`FaultFlags::GAUGE`]); and the
+/// beam's strain as the observer estimates it, whatever the gauge says, is held to the trip
+/// ([`FaultFlags::OVER_STRAIN`]).
 #[cfg(feature = "observer")]
 #[inline(always)]
 pub(super) fn watch_sensors(
@@ -39,7 +41,9 @@ pub(super) fn watch_sensors(
     let o = &law.lqg;
     let mut faults = FaultFlags::default();
     if o.residual_strain > GAUGE_RESIDUAL || o.residual_theta > ENCODER_RESIDUAL {
-        if still_ticks >= 5 && r.vel != 0.0 {
+        if o.rang {
+            faults.insert(FaultFlags::RINGING);
+        } else if still_ticks >= 5 && r.vel != 0.0 {
             faults.insert(FaultFlags::ENCODER_STUCK);
         } else {
             faults.insert(FaultFlags::GAUGE);

@@ -289,13 +289,16 @@ impl<const K: usize> Controller<K> {
             #[cfg(feature = "observer")]
             if !st.braking {
                 let seen = watch_sensors(&st.law_state, &cfg.settings, st.still_ticks, r);
-                if seen.contains(FaultFlags::GAUGE) {
-                    // The rest of the move and the hold on the drive's own law, which reads
-                    // the encoder alone; no move is taken until the fault is cleared.
-                    st.faults.insert(FaultFlags::GAUGE);
+                // A failed gauge, or a loop that rang through it: the rest of the move and
+                // the hold on the drive's own law, which reads the encoder alone; no move is
+                // taken until the fault is cleared.
+                const SOFT: u16 = FaultFlags::GAUGE.0 | FaultFlags::RINGING.0;
+                let soft = FaultFlags(seen.0 & SOFT);
+                if !soft.is_empty() {
+                    st.faults.insert(soft);
                     st.braking = true;
                 }
-                let hard = FaultFlags(seen.0 & !FaultFlags::GAUGE.0);
+                let hard = FaultFlags(seen.0 & !SOFT);
                 if !hard.is_empty() {
                     st.faults.insert(hard);
                     st.mode = Mode::Fault;
