@@ -69,6 +69,7 @@ fn an_observer_laws_ring_on_a_fourth_mode_is_caught_at_rest_and_the_beam_settles
         );
         let last = r.ticks.last().unwrap();
         assert_eq!(last.faults, FaultFlags::RINGING, "{kind:?}");
+        assert_eq!(last.faults.to_string(), "ringing");
         assert_eq!(last.mode, Mode::Holding, "{kind:?}");
         // Quiet on the drive's own law: a tenth of the limit at most, 0.1 s after the catch.
         let after = r
