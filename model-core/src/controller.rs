@@ -115,11 +115,11 @@ impl FaultFlags {
     /// frequency is not good enough to drive on. Latched again every tick: torque stays off.
     pub const CLOCK: FaultFlags = FaultFlags(1 << 10);
     /// An observer law's loop rang at rest: the torque swung to a limit from the other side
-    /// of zero, tick after tick, until the gauge's residual passed [`GAUGE_RESIDUAL`] (see
+    /// of zero, again and again, until the gauge's residual passed [`GAUGE_RESIDUAL`] (see
     /// [`RING_STEP`](crate::law::RING_STEP)): the beam has a mode the observer does not
-    /// model and the gauge sees. Handled as [`FaultFlags::GAUGE`] is: under torque not a
-    /// stop, the move and the hold go on on the drive's own law, which reads the encoder
-    /// alone, and no move is taken until it is cleared.
+    /// model and the gauge sees. Handled as [`FaultFlags::GAUGE`] is: not a stop, the hold
+    /// goes on on the drive's own law, which reads the encoder alone, and no move is taken
+    /// until it is cleared.
     pub const RINGING: FaultFlags = FaultFlags(1 << 11);
 
     /// Names for display, in bit order.

@@ -643,7 +643,7 @@ pub(crate) mod tests {
 
     #[cfg(feature = "observer")]
     #[test]
-    fn only_a_torque_from_one_limit_to_the_other_at_rest_counts_as_a_ring() {
+    fn only_a_torque_swinging_to_a_limit_from_the_other_side_at_rest_counts_as_a_ring() {
         let limit = 10.0;
         // From `last` applied, with the moving regulator's weight `w`, the command `u`:
         // what it adds to the gauge's residual, and whether it marks the move.
@@ -655,7 +655,8 @@ pub(crate) mod tests {
             assert!(out.is_finite());
             (law.lqg.residual_strain, law.lqg.rang, law.lqg.applied_nm)
         };
-        // At rest (the moving regulator fading): from one limit past the other, both ways.
+        // At rest (the moving regulator fading): from the other side of zero past the limit,
+        // both ways.
         assert_eq!(tick(0.5, -limit, 100.0), (RING_STEP, true, limit));
         assert_eq!(tick(0.0, 0.1, -100.0), (RING_STEP, true, -limit));
         // Not while the reference moves: a move may ask for the limit, and that is the
