@@ -63,6 +63,11 @@ pub struct LqgWeights {
     /// Whether the drive identifies the beam's stiffness at the start of each move and
     /// corrects its observer's model for the rest of it ([`LqgDesign::id_a`]).
     pub identify: bool,
+    /// The step per tick of the first-order low-pass the drive runs its feedback through,
+    /// in (0, 1] (`f+ = f + step (u - f)`): the regulator is designed on the sampled model
+    /// with the filter's state in it ([`LqgDesign::k_filter`]), so that a filter slow enough
+    /// to roll the loop off above the modes it knows costs it no phase at them. 1: no filter.
+    pub feedback_lowpass: f64,
 }
 
 /// What the sensors resolve, for the observer's measurement noise.
@@ -115,6 +120,12 @@ pub struct LqgDesign {
     /// state unit: the loop's gain is `k + w k_move`, `w` 1 while the reference moves and
     /// fading after it stops (the tick's). Zero for a single regulator.
     pub k_move: [f32; MAX_STATES],
+    /// The state feedback's gain on the feedback low-pass's state (the filtered feedback
+    /// torque applied last tick, [`LqgWeights::feedback_lowpass`]), per N m; 0 without
+    /// the filter.
+    pub k_filter: f32,
+    /// What the moving regulator adds to [`LqgDesign::k_filter`], as `k_move` to `k`.
+    pub k_move_filter: f32,
     /// The encoder's count interval about a reading, rad, `[min(step, 0), max(step, 0)]`: at
     /// rest the observer corrects its angle only by how far its prediction lies outside
     /// `[theta + lo, theta + hi]` ([`LqgWeights::count_interval`]); `[0, 0]` reads the angle as
@@ -181,6 +192,8 @@ impl LqgDesign {
         l: [[0.0; 2]; MAX_STATES],
         k: [0.0; MAX_STATES],
         k_move: [0.0; MAX_STATES],
+        k_filter: 0.0,
+        k_move_filter: 0.0,
         count_interval: [0.0; 2],
         ki: 0.0,
         ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
@@ -223,6 +236,8 @@ impl LqgDesign {
             l: rows(&a.l, &b.l, m),
             k: each(&a.k, &b.k, m),
             k_move: each(&a.k_move, &b.k_move, m),
+            k_filter: m(a.k_filter, b.k_filter),
+            k_move_filter: m(a.k_move_filter, b.k_move_filter),
             count_interval: each(&a.count_interval, &b.count_interval, m),
             ki: m(a.ki, b.ki),
             ref_ad: rows(&a.ref_ad, &b.ref_ad, m),
@@ -250,6 +265,8 @@ impl LqgWeights {
             && nonneg(self.kq)
             && pos(self.sigma_nm)
             && nonneg(self.move_rate)
+            && pos(self.feedback_lowpass)
+            && self.feedback_lowpass <= 1.0
         {
             Ok(())
         } else {
@@ -397,6 +414,8 @@ pub fn design<const N: usize>(
 
     let mut out = LqgDesign {
         ki: kfull[nx] as f32,
+        k_filter: kfull[nx + 1] as f32,
+        k_move_filter: kmove.map_or(0.0, |k| (k[nx + 1] - kfull[nx + 1]) as f32),
         jeff: model.jeff as f32,
         mtt: model.mtt as f32,
         viscous: model.beam.params().viscous_nms as f32,
@@ -447,9 +466,9 @@ pub fn design<const N: usize>(
 }
 
 /// The state feedback on the sampled model `(ad, bd)` augmented with the integral of the hub
-/// angle: `K = (R + B'XB)^-1 B'XA` from the regulator's Riccati equation, in the model's
-/// layout, the integral's gain last; with `rate > 0`, every closed-loop pole of the model
-/// left of `-rate`, 1/s.
+/// angle and the feedback low-pass's state: `K = (R + B'XB)^-1 B'XA` from the regulator's
+/// Riccati equation, in the model's layout, then the integral's gain and the filter's; with
+/// `rate > 0`, every closed-loop pole of the model and the filter left of `-rate`, 1/s.
 fn regulator<const N: usize>(
     model: &ModalModel<N>,
     ad: &Mat,
@@ -459,20 +478,29 @@ fn regulator<const N: usize>(
     rate: f64,
 ) -> Result<[f64; D], LqgError> {
     let nx = 2 + 2 * N;
-    // Regulator on [x; z], z the integral of the hub angle error: z+ = z + ts theta.
-    let na = nx + 1;
+    // Regulator on [x; z; f], z the integral of the hub angle error (z+ = z + ts theta)
+    // and f the feedback low-pass's state, the filtered torque applied last tick: the
+    // regulator's command `u` moves it to `f+ = (1 - a) f + a u`, which drives the plant
+    // over the tick.
+    let na = nx + 2;
+    let (a, f) = (weights.feedback_lowpass, nx + 1);
     let mut aa = *ad;
     aa[nx][nx] = 1.0;
     aa[nx][0] = ts_s;
-    let mut ba = *bd;
-    ba[nx] = 0.0;
+    let mut ba = [0.0; D];
+    for i in 0..nx {
+        aa[i][f] = bd[i] * (1.0 - a);
+        ba[i] = bd[i] * a;
+    }
+    aa[f][f] = 1.0 - a;
+    ba[f] = a;
     // A prescribed degree of stability: the regulator of `(e^(rate ts) A, e^(rate ts) B)`
     // holds that pair's poles inside the unit circle, so the true pair's lie within
     // `e^(-rate ts)`, left of `-rate` (Anderson and Moore). The integral's row is left as it
     // is: with `ki = 0` its pole stays where the small weight below puts it.
     let g = libm::exp(rate * ts_s);
-    for i in 0..nx {
-        for j in 0..nx {
+    for i in (0..nx).chain([f]) {
+        for j in (0..nx).chain([f]) {
             aa[i][j] *= g;
         }
         ba[i] *= g;
@@ -487,7 +515,8 @@ fn regulator<const N: usize>(
             q[2 + N + i][2 + N + j] = 0.5 * weights.kq * model.mqq[i][j];
         }
     }
-    // A small weight keeps the integral's pole off the unit circle when ki = 0.
+    // A small weight keeps the integral's pole off the unit circle when ki = 0. The
+    // filter's state is not weighted: it is the torque, whose cost is R.
     q[nx][nx] = (weights.ki * weights.ki).max(1e-9);
     let mut g = ZERO;
     for i in 0..na {
@@ -773,6 +802,7 @@ mod tests {
             move_rate: 0.0,
             count_interval: false,
             identify: false,
+            feedback_lowpass: FILTER,
         };
         let noise = SensorNoise {
             theta_rad: 1e-4,
@@ -794,19 +824,23 @@ mod tests {
             0 => f64::from(u8::from(i == 0)),
             _ => d.ad[i][j - 1] as f64,
         };
-        // Iterate the closed loop (A - B K) and the observer error (I - L C) A from a unit
-        // start: both must decay.
-        let mut x = [1.0f64; MAX_STATES + 1];
+        // Iterate the closed loop from a unit start (the state, the integral, the filtered
+        // torque: the command `-K [x; z; f]` moves the filter, which drives the plant) and
+        // the observer error (I - L C) A: both must decay.
+        let mut x = [1.0f64; MAX_STATES + 2];
         let mut e = [1.0f64; MAX_STATES];
         for _ in 0..20_000 {
-            let u: f64 = (0..nx).map(|j| d.k[j] as f64 * x[j]).sum::<f64>() + d.ki as f64 * x[nx];
-            let nxt: [f64; MAX_STATES + 1] = core::array::from_fn(|i| {
+            let u: f64 = -(0..nx).map(|j| d.k[j] as f64 * x[j]).sum::<f64>()
+                - d.ki as f64 * x[nx]
+                - d.k_filter as f64 * x[nx + 1];
+            let f = x[nx + 1] + FILTER * (u - x[nx + 1]);
+            let nxt: [f64; MAX_STATES + 2] = core::array::from_fn(|i| {
                 if i < nx {
-                    (0..nx).map(|j| ad(i, j) * x[j]).sum::<f64>() - d.bd[i] as f64 * u
+                    (0..nx).map(|j| ad(i, j) * x[j]).sum::<f64>() + d.bd[i] as f64 * f
                 } else if i == nx {
                     x[nx] + 1e-3 * x[0]
                 } else {
-                    0.0
+                    f
                 }
             });
             x = nxt;
@@ -823,22 +857,44 @@ mod tests {
         assert!(norm(&x) < 1e-3, "closed loop {:?}", x);
     }
 
-    /// The spectral radius of the sampled closed loop `A - B k` (no integral), from the
-    /// growth of `(A - B k)^n`: Gelfand's formula, `||M^n||^(1/n) -> rho(M)`.
-    fn spectral_radius(d: &LqgDesign, k: &[f64; MAX_STATES]) -> f64 {
-        let nx = MAX_STATES;
+    /// The feedback low-pass's step the tests design with: the drive's, 5/32 (27 Hz).
+    const FILTER: f64 = 0.156_25;
+
+    /// The spectral radius of the sampled closed loop (no integral) on `[x; f]`, `f` the
+    /// feedback low-pass's state, with the gains `k` on `x` and `kf` on `f`: the command
+    /// `u = -k x - kf f` makes `f+ = (1 - a) f + a u` and `x+ = A x + B f+`. From the
+    /// growth of `M^n`: Gelfand's formula, `||M^n||^(1/n) -> rho(M)`.
+    fn spectral_radius(d: &LqgDesign, k: &[f64; MAX_STATES], kf: f64) -> f64 {
+        const S: usize = MAX_STATES + 1;
+        let nx = S;
         let a = |i: usize, j: usize| match j {
             0 => f64::from(u8::from(i == 0)),
             _ => d.ad[i][j - 1] as f64,
         };
-        let m: [[f64; MAX_STATES]; MAX_STATES] =
-            core::array::from_fn(|i| core::array::from_fn(|j| a(i, j) - d.bd[i] as f64 * k[j]));
+        // The filter's row: `f+ = (1 - a) f - a (k x + kf f)`.
+        let frow: [f64; S] = core::array::from_fn(|j| {
+            if j < MAX_STATES {
+                -FILTER * k[j]
+            } else {
+                1.0 - FILTER - FILTER * kf
+            }
+        });
+        let m: [[f64; S]; S] = core::array::from_fn(|i| {
+            core::array::from_fn(|j| {
+                if i == MAX_STATES {
+                    frow[j]
+                } else {
+                    let own = if j < MAX_STATES { a(i, j) } else { 0.0 };
+                    own + d.bd[i] as f64 * frow[j]
+                }
+            })
+        });
         // M^(2^12) by squaring, renormalised each time (the radius is the product's).
         let mut p = m;
         let mut log_scale = 0.0f64;
         let n = 12;
         for _ in 0..n {
-            let sq: [[f64; MAX_STATES]; MAX_STATES] = core::array::from_fn(|i| {
+            let sq: [[f64; S]; S] = core::array::from_fn(|i| {
                 core::array::from_fn(|j| (0..nx).map(|l| p[i][l] * p[l][j]).sum())
             });
             let big = sq.iter().flatten().fold(0.0f64, |b, v| b.max(v.abs()));
@@ -867,6 +923,7 @@ mod tests {
                 move_rate: rate,
                 count_interval: false,
                 identify: false,
+                feedback_lowpass: FILTER,
             };
             let d = design(&m, &w, &noise, ts).unwrap();
             let base: [f64; MAX_STATES] = core::array::from_fn(|i| d.k[i] as f64);
@@ -875,7 +932,11 @@ mod tests {
             // own regulator is not (its slowest poles are near -11 1/s), so the bound is the
             // design's doing.
             let bound = (-rate * ts).exp();
-            let (rb, rm) = (spectral_radius(&d, &base), spectral_radius(&d, &moving));
+            let (kf, kfm) = (d.k_filter as f64, (d.k_filter + d.k_move_filter) as f64);
+            let (rb, rm) = (
+                spectral_radius(&d, &base, kf),
+                spectral_radius(&d, &moving, kfm),
+            );
             assert!(rm < bound, "rate {rate}: {rm} against {bound}");
             assert!(rb > (-20.0 * ts).exp(), "the regulator alone: {rb}");
             // With no rate there is nothing to add.
@@ -890,7 +951,22 @@ mod tests {
             )
             .unwrap();
             assert_eq!(d0.k_move, [0.0; MAX_STATES]);
+            assert_eq!(d0.k_move_filter, 0.0);
             assert_eq!(d0.k, d.k);
+            assert_eq!(d0.k_filter, d.k_filter);
+            // Without a filter (a step of 1, the command applied as it is) the filter's
+            // state carries nothing and has no gain.
+            let bare = design(
+                &m,
+                &LqgWeights {
+                    feedback_lowpass: 1.0,
+                    ..w
+                },
+                &noise,
+                ts,
+            )
+            .unwrap();
+            assert_eq!((bare.k_filter, bare.k_move_filter), (0.0, 0.0));
         }
     }
 }

@@ -416,6 +416,8 @@ impl Known {
         if self.regulator {
             d.k = beam.k;
             d.k_move = beam.k_move;
+            d.k_filter = beam.k_filter;
+            d.k_move_filter = beam.k_move_filter;
             d.ki = beam.ki;
             d.jeff = beam.jeff;
         }

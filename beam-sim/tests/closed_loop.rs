@@ -250,10 +250,12 @@ fn the_full_state_sliding_mode_holds_a_load_and_its_switching_term_stiffens_it()
     assert!(matches!(recover, Some(Some(_))), "{recover:?}");
     // A switching term that reaches well past the load (Jeff A = 7 N m) with a thin layer
     // holds the hub closer. (The shipped term, Jeff A = 2.2 N m in a wide layer, changes
-    // the hold by under 1 %.)
+    // the hold by under 1 %.) The term goes through the feedback's 27 Hz low-pass with the
+    // rest of the feedback, which takes some of its stiffness: 0.66 against 0.74 deg
+    // (2026-11-27; a fifth less before the low-pass was designed in).
     let (stiff, _) = deviation_under_load(Law::SmcModal(gains(1000.0, 1.0)));
     assert!(
-        stiff < 0.8 * lqr,
+        stiff < 0.9 * lqr,
         "A 1000, beta 1: {stiff} deg, A 0: {lqr} deg"
     );
 }

@@ -41,8 +41,8 @@ pub use lqg::{
 #[cfg(feature = "observer")]
 pub use lqg::{DesignOptions, ObserverState, MOVE_FADE_PER_TICK, MOVE_FADE_S};
 pub use lqg::{
-    LqgGains, ASSUMED_STRAIN_NOISE, INTEGRAL_MAX_RATE_RAD_S, LQG_MODES, RING_STEP,
-    TORQUE_LOWPASS_ALPHA, TORQUE_LOWPASS_HZ,
+    LqgGains, ASSUMED_STRAIN_NOISE, FEEDBACK_LOWPASS_ALPHA, FEEDBACK_LOWPASS_HZ,
+    INTEGRAL_MAX_RATE_RAD_S, LQG_MODES, RING_STEP,
 };
 pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
@@ -624,12 +624,12 @@ pub(crate) mod tests {
     use crate::modal::ModalModel;
 
     #[test]
-    fn the_torque_low_pass_step_is_its_corner_at_the_drives_tick() {
+    fn the_feedback_low_pass_step_is_its_corner_at_the_drives_tick() {
         // 1 - exp(-2 pi f ts), in f64, against the f32 step the tick uses.
-        let (f, ts) = (TORQUE_LOWPASS_HZ as f64, crate::DEFAULT_TS_S as f64);
+        let (f, ts) = (FEEDBACK_LOWPASS_HZ as f64, crate::DEFAULT_TS_S as f64);
         let alpha = 1.0 - libm::exp(-2.0 * core::f64::consts::PI * f * ts);
         assert!(
-            (alpha - TORQUE_LOWPASS_ALPHA as f64).abs() < 1e-4,
+            (alpha - FEEDBACK_LOWPASS_ALPHA as f64).abs() < 1e-4,
             "{alpha}"
         );
     }
@@ -650,28 +650,30 @@ pub(crate) mod tests {
         let tick = |w: f32, last: f32, u: f32| {
             let mut law = LawState::default();
             law.lqg.move_weight = w;
+            // At rest: no feedforward, the torque applied all feedback.
             law.lqg.applied_nm = last;
-            let out = lqg::applied(&mut law, u, limit);
+            law.lqg.feedback_nm = last;
+            let out = lqg::applied(&mut law, 0.0, -u, limit);
             assert!(out.is_finite());
             (law.lqg.residual_strain, law.lqg.rang, law.lqg.applied_nm)
         };
         // At rest (the moving regulator fading): from the other side of zero past the limit,
         // both ways.
-        assert_eq!(tick(0.5, -limit, 100.0), (RING_STEP, true, limit));
-        assert_eq!(tick(0.0, 0.1, -100.0), (RING_STEP, true, -limit));
+        assert_eq!(tick(0.5, -limit, 1000.0), (RING_STEP, true, limit));
+        assert_eq!(tick(0.0, 0.1, -1000.0), (RING_STEP, true, -limit));
         // Not while the reference moves: a move may ask for the limit, and that is the
         // planner's and the feedback's business.
-        assert_eq!(tick(1.0, -limit, 100.0), (0.0, false, limit));
+        assert_eq!(tick(1.0, -limit, 1000.0), (0.0, false, limit));
         // Not at one limit on and on (a blocked hub, a load), nor a swing within the limit.
-        assert_eq!(tick(0.5, limit, 100.0), (0.0, false, limit));
+        assert_eq!(tick(0.5, limit, 1000.0), (0.0, false, limit));
         assert_eq!(
-            tick(0.5, -limit, limit / TORQUE_LOWPASS_ALPHA - limit).0,
+            tick(0.5, -limit, limit / FEEDBACK_LOWPASS_ALPHA - limit).0,
             0.0
         );
         // From just below zero the low-pass reaches the limit only on a command of at least
-        // `limit / alpha` (13.9 N m): a jump no move or hold of the shipped laws asks for.
-        assert!(!tick(0.5, -1e-3, 13.0).1);
-        assert!(tick(0.5, -1e-3, 14.0).1);
+        // `limit / alpha` (64 N m): a jump no move or hold of the shipped laws asks for.
+        assert!(!tick(0.5, -1e-3, 63.0).1);
+        assert!(tick(0.5, -1e-3, 65.0).1);
         // The residual falls by `1 / RESIDUAL_TICKS` a tick: one such tick stays under the
         // monitor's bound, three on end pass it.
         let (bound, keep) = (

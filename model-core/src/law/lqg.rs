@@ -45,6 +45,7 @@ impl LqgGains {
             move_rate: options.move_rate,
             count_interval: options.count_interval,
             identify: options.identify,
+            feedback_lowpass: FEEDBACK_LOWPASS_ALPHA as f64,
         }
     }
 
@@ -101,8 +102,9 @@ pub const LQG_MODES: usize = beam_model::lqg::DESIGN_MODES;
 
 /// The noise the LQG observer assumes on the root strain gauge, strain: a bridge amplifier's
 /// typical floor, well above a 24-bit converter's quantisation. 0.6 ue, a little above the
-/// simulated gauge's 0.5 ue, chosen with [`TORQUE_LOWPASS_HZ`] by sweeps of 200 beams 20 %
-/// off the model on two seeds (docs/results.md). At 1 ue the observer leaned on the encoder
+/// simulated gauge's 0.5 ue, chosen with a 202 Hz low-pass on the torque (since replaced by
+/// [`FEEDBACK_LOWPASS_HZ`]) by sweeps of 200 beams 20 % off the model on two seeds
+/// (docs/results.md). At 1 ue the observer leaned on the encoder
 /// and left the short moves' strain at the 5 ue band's edge on beams stiffer than the model
 /// (15 deg p95 2.9 s against 1.1 s); at 0.6 ue without the low-pass, its torque at rest
 /// carried 0.5 N m RMS of noise.
@@ -119,6 +121,9 @@ pub struct ObserverState {
     pub reference: [f32; 2 * DESIGN_MODES],
     /// The torque the drive applied last tick, within the limit, N m.
     pub applied_nm: f32,
+    /// The feedback low-pass's state ([`FEEDBACK_LOWPASS_HZ`]): the feedback in the torque
+    /// applied last tick (that torque less its feedforward), N m.
+    pub feedback_nm: f32,
     /// How far the encoder reads from what the observer predicted it would, rad: the
     /// innovation's magnitude, low-passed over ten ticks.
     pub residual_theta: f32,
@@ -341,7 +346,7 @@ pub const INTEGRAL_MAX_RATE_RAD_S: f32 = 5.0;
 #[cfg(feature = "observer")]
 #[inline(always)]
 fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState, ts_s: f32) -> f32 {
-    let (mut u, _, pos) = observe::<false>(this, x, r, law);
+    let (ff, feedback, pos) = observe::<false>(this, x, r, law);
     if libm::fabsf(r.vel) < INTEGRAL_MAX_RATE_RAD_S {
         law.integral = integrate(
             law.integral,
@@ -350,8 +355,8 @@ fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState,
             this.integral_max,
         );
     }
-    u -= this.observer.ki * law.integral;
-    applied(law, u, this.observer.torque_limit_nm)
+    let feedback = feedback + this.observer.ki * law.integral;
+    applied(law, ff, feedback, this.observer.torque_limit_nm)
 }
 
 /// Index of the hub rate in [`LqgDesign`]'s layout.
@@ -397,9 +402,10 @@ dot!(dot5, 5, 0 1 2 3 4);
 /// The observer's tick, shared by the laws on it: its predict (with the torque applied last
 /// tick) and update (with the hub angle and root strain), the reference beam's step, and
 /// the state feedback about the reference state (the hub on its reference, the beam bent as
-/// the reference's torque swings it). Returns `(ff - K (x - x_ref), K (x - x_ref),
-/// theta_ref)`: the feedforward less the state feedback and the feedback alone, N m, and
-/// the reference state's hub angle, rad.
+/// the reference's torque swings it) and on the feedback low-pass's state `f`
+/// ([`LqgDesign::k_filter`]). Returns `(ff, K (x - x_ref) + kf f, theta_ref)`: the
+/// feedforward and the state feedback, N m (the torque asked for is `ff` less the
+/// feedback), and the reference state's hub angle, rad.
 ///
 /// With `IDENTIFY` (and the `identify` feature), the identifier runs at the start of each
 /// move (`identify`, [`LqgDesign::id_a`]) and the
@@ -446,12 +452,12 @@ pub(super) fn observe<const IDENTIFY: bool>(
     // The hub rate squared: the centrifugal term (minus the foreshortening) of the
     // reference beam, `Mf^-1 S w^2 q` in the modes' equations.
     let w2 = vel * vel;
-    let u = d.mtt * r.acc + d.viscous * vel;
-    // Made here, not where the branch below merges: left to itself, LLVM loads these
-    // coefficients now, spills them to the stack over the reference beam's step and adds
-    // them up after it (about 30 instructions of the drive's tick). `black_box` pins the
-    // sum to this point for 3 (a store and a load); the value is unchanged.
-    let mut u = core::hint::black_box(u);
+    let ff = d.mtt * r.acc + d.viscous * vel;
+    // Made here, not where it is returned: left to itself, LLVM loads these coefficients
+    // now, spills them to the stack over the reference beam's step and adds them up after
+    // it (about 30 instructions of the drive's tick). `black_box` pins the sum to this
+    // point for 3 (a store and a load); the value is unchanged.
+    let ff = core::hint::black_box(ff);
     // Once the reference is at rest the reference beam is too: whatever it would still
     // ring with (a shaper's residual, a mode it was not tuned for) is the feedback's to
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
@@ -516,13 +522,13 @@ pub(super) fn observe<const IDENTIFY: bool>(
     // beam as the reference beam is.
     let reference = [pos, tq[0], tq[1], vel, tdq[0], tdq[1]];
     let w = state.move_weight;
-    let mut sigma = 0.0f32;
+    // The filtered feedback the plant is driven by this tick starts from last tick's: the
+    // regulator is designed with it as a state.
+    let mut sigma = (d.k_filter + w * d.k_move_filter) * state.feedback_nm;
     macro_rules! update {
         ($i:ident, $pred:expr) => {{
             let xi = $pred + d.l[$i][0] * innov_theta + d.l[$i][1] * innov_strain;
-            let feedback = (d.k[$i] + w * d.k_move[$i]) * (xi - reference[$i]);
-            u -= feedback;
-            sigma += feedback;
+            sigma += (d.k[$i] + w * d.k_move[$i]) * (xi - reference[$i]);
             state.estimate[$i] = xi;
         }};
     }
@@ -540,7 +546,7 @@ pub(super) fn observe<const IDENTIFY: bool>(
     });
     state.strain_estimate =
         d.strain_coef[0] * state.estimate[1] + d.strain_coef[1] * state.estimate[2];
-    (u, sigma, pos)
+    (ff, sigma, pos)
 }
 
 /// The factor on the reference beam's bending the feedback holds the beam to: `1 +
@@ -700,18 +706,28 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
     Some([stiffness - 1.0, 1.0 / stiffness - 1.0])
 }
 
-/// The corner of the first-order low-pass on the observer laws' torque, Hz. The estimate
-/// carries the encoder's steps and the gauge's noise straight into the torque (the update's
-/// gain times the feedback's): at rest 0.31-0.40 N m RMS, most of it above 150 Hz, where the
-/// beam's first two modes (4-6 and 30-40 Hz) have no use for it. At 200 Hz the filter lags
-/// 10 deg at the second mode; at 100 Hz the lag cost more settle time than the noise did
-/// (docs/results.md).
-pub const TORQUE_LOWPASS_HZ: f32 = 201.9;
+/// The corner of the first-order low-pass on the observer laws' feedback, Hz (the
+/// feedforward is added after it). The regulators are designed with the filter's state in
+/// their model ([`LqgDesign::k_filter`]), so its lag at the modes they control is theirs to
+/// make up, and it rolls their loop off above those modes.
+///
+/// The loop closes mostly through the root gauge, which sees every mode of the beam, and
+/// the observer's current estimate passes the gauge's reading straight into the torque,
+/// with a gain that grows with frequency (0.1 N m per ue at 1 Hz, 0.3 at 190 Hz and 0.5 at
+/// 300 Hz for smc-modal with the 202 Hz filter this replaced, left out of the design). On a
+/// beam simulated with a fourth mode (clamped, about 190 Hz, which the observer's two modes
+/// take for theirs) that loop rang at 300 Hz, the torque swinging from limit to limit
+/// (docs/design.md, 4b). Designed in, a corner of 27 Hz holds every one of 200 beams of the
+/// spread quiet on four modes, at 41-46 Hz some still ring, and on three modes the settle
+/// times are as with the 202 Hz filter (smc-modal) or shorter (lqg); at 17 Hz the 15 deg
+/// p95 grew. It also takes the gauge's and the encoder's noise out of the torque (1.7 N m
+/// the largest peak over the 15 deg sweep, against 3.2).
+pub const FEEDBACK_LOWPASS_HZ: f32 = 27.04;
 
 /// The low-pass's step at the drive's 1 kHz tick, `1 - exp(-2 pi f ts)` for
-/// [`TORQUE_LOWPASS_HZ`] (a test checks it): 23/32, a value the FPU loads as an immediate.
-/// A literal would cost the 4 bytes of flash the smc-modal board does not have.
-pub const TORQUE_LOWPASS_ALPHA: f32 = 0.718_75;
+/// [`FEEDBACK_LOWPASS_HZ`] (a test checks it): 5/32, a value the FPU loads as an immediate
+/// (a literal would cost 4 bytes of flash), and the step the regulators are designed with.
+pub const FEEDBACK_LOWPASS_ALPHA: f32 = 0.156_25;
 
 /// What a tick at rest on which the torque swings to a limit from the other side of zero
 /// adds to the gauge's residual (`ObserverState::residual_strain`), strain: half the
@@ -731,20 +747,21 @@ pub const TORQUE_LOWPASS_ALPHA: f32 = 0.718_75;
 /// with and without payloads, both laws, 2026-11-27) trips it.
 pub const RING_STEP: f32 = 35e-6;
 
-/// Low-passes `u` ([`TORQUE_LOWPASS_HZ`]) from the torque applied last tick, records the
-/// result within the drive's `limit` as the torque the observer is told was applied next
-/// tick, and returns it. A tick at rest on which the torque swings to a limit from the
+/// The torque: the feedforward `ff` less the `feedback` low-passed ([`FEEDBACK_LOWPASS_HZ`])
+/// from the feedback in last tick's. Records it within the drive's `limit` as the torque
+/// the observer is told was applied next tick, and the filter's state as the feedback in
+/// that (so that a saturated command does not wind the filter up), and returns it. A tick at rest on which the torque swings to a limit from the
 /// other side of zero (the loop ringing) adds [`RING_STEP`] to the gauge's residual and
 /// marks the move ([`ObserverState::rang`]); both are looked at only at the limit, off the
 /// tick's usual path.
 #[cfg(feature = "observer")]
 #[inline(always)]
-pub(super) fn applied(law: &mut LawState, u: f32, limit: f32) -> f32 {
-    // The filter's state is the torque applied last tick: within the limit, so a saturated
-    // command does not wind the filter up.
-    let last = law.lqg.applied_nm;
-    let u = last + TORQUE_LOWPASS_ALPHA * (u - last);
-    law.lqg.applied_nm = if u > limit {
+pub(super) fn applied(law: &mut LawState, ff: f32, feedback: f32, limit: f32) -> f32 {
+    // The filter's state is the feedback's share of the torque, with its sign in it
+    // (`torque - ff`).
+    let last = law.lqg.feedback_nm;
+    let u = ff + (last - FEEDBACK_LOWPASS_ALPHA * (feedback + last));
+    let applied = if u > limit {
         swung(&mut law.lqg, 1.0);
         limit
     } else if u < -limit {
@@ -753,6 +770,8 @@ pub(super) fn applied(law: &mut LawState, u: f32, limit: f32) -> f32 {
     } else {
         u
     };
+    law.lqg.applied_nm = applied;
+    law.lqg.feedback_nm = applied - ff;
     u
 }
 

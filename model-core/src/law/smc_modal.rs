@@ -168,11 +168,11 @@ impl LawGains for SmcModalGains {
         #[cfg(feature = "observer")]
         {
             let d = &law.observer;
-            let (linear, sigma, _) =
+            let (ff, sigma, _) =
                 super::lqg::observe::<{ cfg!(feature = "identify") }>(law, x, r, state);
             let s = sigma / d.k[super::lqg::RATE];
-            let u = linear - d.jeff * self.a * self.switching.apply(self.beta * s);
-            super::lqg::applied(state, u, d.torque_limit_nm)
+            let feedback = sigma + d.jeff * self.a * self.switching.apply(self.beta * s);
+            super::lqg::applied(state, ff, feedback, d.torque_limit_nm)
         }
         // Never built without the feature (`build` refuses it).
         #[cfg(not(feature = "observer"))]
