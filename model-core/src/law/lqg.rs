@@ -708,8 +708,8 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
 
 /// The corner of the first-order low-pass on the observer laws' feedback, Hz (the
 /// feedforward is added after it). The regulators are designed with the filter's state in
-/// their model ([`LqgDesign::k_filter`]), so its lag at the modes they control is theirs to
-/// make up, and it rolls their loop off above those modes.
+/// their model ([`k_filter`](beam_model::lqg::LqgDesign::k_filter)), so its lag at the
+/// modes they control is theirs to make up, and it rolls their loop off above those modes.
 ///
 /// The loop closes mostly through the root gauge, which sees every mode of the beam, and
 /// the observer's current estimate passes the gauge's reading straight into the torque,
@@ -718,10 +718,12 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
 /// beam simulated with a fourth mode (clamped, about 190 Hz, which the observer's two modes
 /// take for theirs) that loop rang at 300 Hz, the torque swinging from limit to limit
 /// (docs/design.md, 4b). Designed in, a corner of 27 Hz holds every one of 200 beams of the
-/// spread quiet on four modes, at 41-46 Hz some still ring, and on three modes the settle
+/// spread quiet on four modes, at 46 Hz some still ring, and on three modes the settle
 /// times are as with the 202 Hz filter (smc-modal) or shorter (lqg); at 17 Hz the 15 deg
 /// p95 grew. It also takes the gauge's and the encoder's noise out of the torque (1.7 N m
-/// the largest peak over the 15 deg sweep, against 3.2).
+/// the largest peak over the 15 deg sweep, against 3.2). The price is the hold: the
+/// filter's state fed back (`u = -K x - kf f`) leaves the hub a static stiffness of `K /
+/// (1 + kf)`, and smc-modal gives way 0.79 deg under 0.5 N m (0.35 before), lqg 0.54 (0.24).
 pub const FEEDBACK_LOWPASS_HZ: f32 = 27.04;
 
 /// The low-pass's step at the drive's 1 kHz tick, `1 - exp(-2 pi f ts)` for
@@ -737,23 +739,27 @@ pub const FEEDBACK_LOWPASS_ALPHA: f32 = 0.156_25;
 /// The observer laws close their loop mostly through the root gauge, and the gauge sees
 /// every mode of the beam: one the observer does not model, above its two, can make the loop
 /// ring. On a beam simulated with four modes (its fourth, clamped, about 190 Hz) both laws
-/// ring at about 300 Hz from the first ticks of a move, the torque swinging from limit to
-/// limit every tick or two; with the gauge blind to that mode they settle as on three. Once
-/// the move's reference is at rest, ringing, the drive latches
-/// [`FaultFlags::RINGING`](crate::FaultFlags::RINGING) within a few ticks and holds on its
-/// own law, which reads the encoder alone. Not while the reference moves: the drive's law,
-/// following a move planned for an observer law, bent heavy beams past 2700 ue and out of
-/// their model. None of the 22 400 runs of the README's sweeps on three modes (seven seeds,
-/// with and without payloads, both laws, 2026-11-27) trips it.
+/// rang at about 300 Hz from the first ticks of a move, the torque swinging from limit to
+/// limit, until the feedback's low-pass was designed in ([`FEEDBACK_LOWPASS_HZ`]); a loop
+/// that rings all the same rings while the reference moves, where the gauge monitor trips
+/// on it as the gauge. This is the backstop at rest: a ring there latches
+/// [`FaultFlags::RINGING`](crate::FaultFlags::RINGING) within a few ticks and the drive holds
+/// on its own law, which reads the encoder alone. Through the 27 Hz filter the torque
+/// reaches a limit from the other side of zero in one tick only on a command past 118 N m.
+/// Not while the reference moves: the drive's law, following a move planned for an observer
+/// law, bent heavy beams past 2700 ue and out of their model. None of the 22 400 runs of the
+/// README's sweeps on three modes (seven seeds, with and without payloads, both laws,
+/// 2026-11-27, before the filter) tripped it.
 pub const RING_STEP: f32 = 35e-6;
 
 /// The torque: the feedforward `ff` less the `feedback` low-passed ([`FEEDBACK_LOWPASS_HZ`])
 /// from the feedback in last tick's. Records it within the drive's `limit` as the torque
 /// the observer is told was applied next tick, and the filter's state as the feedback in
-/// that (so that a saturated command does not wind the filter up), and returns it. A tick at rest on which the torque swings to a limit from the
-/// other side of zero (the loop ringing) adds [`RING_STEP`] to the gauge's residual and
-/// marks the move ([`ObserverState::rang`]); both are looked at only at the limit, off the
-/// tick's usual path.
+/// that (so that a saturated command does not wind the filter up), and returns it. A tick
+/// at rest on which the torque swings to a limit from the other side of zero (the loop
+/// ringing) adds [`RING_STEP`] to the gauge's residual and marks the move
+/// ([`ObserverState::rang`]); both are looked at only at the limit, off the tick's usual
+/// path.
 #[cfg(feature = "observer")]
 #[inline(always)]
 pub(super) fn applied(law: &mut LawState, ff: f32, feedback: f32, limit: f32) -> f32 {
