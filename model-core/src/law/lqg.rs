@@ -723,7 +723,7 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
 /// p95 grew. It also takes the gauge's and the encoder's noise out of the torque (1.7 N m
 /// the largest peak over the 15 deg sweep, against 3.2). The price is the hold: the
 /// filter's state fed back (`u = -K x - kf f`) leaves the hub a static stiffness of `K /
-/// (1 + kf)`, and smc-modal gives way 0.79 deg under 0.5 N m (0.35 before), lqg 0.54 (0.24).
+/// (1 + kf)`, and smc-modal gives way 0.77 deg under 0.5 N m (0.35 before), lqg 0.54 (0.24).
 pub const FEEDBACK_LOWPASS_HZ: f32 = 27.04;
 
 /// The low-pass's step at the drive's 1 kHz tick, `1 - exp(-2 pi f ts)` for
