@@ -55,8 +55,16 @@ pub struct LqgWeights {
     /// The regulator while the reference moves: one designed on the same weights so that every
     /// closed-loop pole of the nominal model (the integral's aside) lies left of `-move_rate`,
     /// 1/s (an LQR with a prescribed degree of stability), the loop's own regulator `K` at
-    /// rest. 0: `K` throughout ([`LqgDesign::k_move`] is zero).
+    /// rest. 0: `K` throughout ([`LqgDesign::k_move`] is zero). With a payload lighter than
+    /// [`LqgWeights::move_rate_payload_kg`], [`LqgWeights::move_rate_at`].
     pub move_rate: f64,
+    /// The moving regulator's rate on the beam without a payload, 1/s: it falls along a
+    /// straight line to [`LqgWeights::move_rate`] at [`LqgWeights::move_rate_payload_kg`]
+    /// and stays there for heavier payloads. Not above `move_rate`: `move_rate` at every
+    /// payload.
+    pub move_rate_unloaded: f64,
+    /// The payload from which the moving regulator's rate is [`LqgWeights::move_rate`], kg.
+    pub move_rate_payload_kg: f64,
     /// Whether the observer reads the encoder at rest as the count's interval
     /// ([`LqgDesign::count_interval`]), not as a noisy point.
     pub count_interval: bool,
@@ -256,6 +264,16 @@ impl LqgDesign {
 }
 
 impl LqgWeights {
+    /// The moving regulator's rate for a beam carrying `payload_kg`, 1/s (0: none).
+    pub fn move_rate_at(&self, payload_kg: f64) -> f64 {
+        let (loaded, unloaded) = (self.move_rate, self.move_rate_unloaded);
+        if !(loaded > 0.0 && unloaded > loaded && self.move_rate_payload_kg > 0.0) {
+            return loaded;
+        }
+        let f = (payload_kg / self.move_rate_payload_kg).clamp(0.0, 1.0);
+        unloaded + (loaded - unloaded) * f
+    }
+
     fn check(&self) -> Result<(), LqgError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
         let nonneg = |v: f64| v.is_finite() && v >= 0.0;
@@ -265,6 +283,8 @@ impl LqgWeights {
             && nonneg(self.kq)
             && pos(self.sigma_nm)
             && nonneg(self.move_rate)
+            && nonneg(self.move_rate_unloaded)
+            && nonneg(self.move_rate_payload_kg)
             && pos(self.feedback_lowpass)
             && self.feedback_lowpass <= 1.0
         {
@@ -397,15 +417,9 @@ pub fn design<const N: usize>(
         return Err(LqgError::Numerics);
     }
     let kfull = regulator(model, &ad, &bd, weights, ts_s, 0.0)?;
-    let kmove = if weights.move_rate > 0.0 {
-        Some(regulator(
-            model,
-            &ad,
-            &bd,
-            weights,
-            ts_s,
-            weights.move_rate,
-        )?)
+    let rate = weights.move_rate_at(model.beam.params().tip_mass_kg);
+    let kmove = if rate > 0.0 {
+        Some(regulator(model, &ad, &bd, weights, ts_s, rate)?)
     } else {
         None
     };
@@ -803,6 +817,8 @@ mod tests {
             count_interval: false,
             identify: false,
             feedback_lowpass: FILTER,
+            move_rate_unloaded: 0.0,
+            move_rate_payload_kg: 0.0,
         };
         let noise = SensorNoise {
             theta_rad: 1e-4,
@@ -905,6 +921,57 @@ mod tests {
     }
 
     #[test]
+    fn the_moving_rate_falls_from_the_unloaded_one_to_its_own_at_the_payload_given() {
+        let w = LqgWeights {
+            kp: 200.0,
+            kd: 1.0,
+            ki: 0.0,
+            kq: 1e4,
+            sigma_nm: 3.0,
+            move_rate: 12.0,
+            count_interval: false,
+            identify: false,
+            feedback_lowpass: FILTER,
+            move_rate_unloaded: 18.0,
+            move_rate_payload_kg: 0.025,
+        };
+        assert_eq!(w.move_rate_at(0.0), 18.0);
+        assert!((w.move_rate_at(0.0125) - 15.0).abs() < 1e-12);
+        assert_eq!(w.move_rate_at(0.025), 12.0);
+        assert_eq!(w.move_rate_at(0.05), 12.0);
+        // No moving regulator, or none faster unloaded: the rate is `move_rate` throughout.
+        let none = LqgWeights {
+            move_rate: 0.0,
+            ..w
+        };
+        assert_eq!(none.move_rate_at(0.0), 0.0);
+        let slower = LqgWeights {
+            move_rate_unloaded: 6.0,
+            ..w
+        };
+        assert_eq!(slower.move_rate_at(0.0), 12.0);
+        // The design takes the rate at its model's payload: unloaded, the design of a
+        // moving regulator at 18 1/s, every pole of its loop left of -18 1/s.
+        let m = leading_modes::<3, DESIGN_MODES>(&model()).unwrap();
+        assert_eq!(m.beam.params().tip_mass_kg, 0.0);
+        let noise = SensorNoise {
+            theta_rad: 1e-4,
+            encoder_step_rad: 0.0,
+            strain: 1e-6,
+        };
+        let d = design(&m, &w, &noise, 1e-3).unwrap();
+        let fixed = LqgWeights {
+            move_rate: 18.0,
+            move_rate_unloaded: 0.0,
+            ..w
+        };
+        assert_eq!(d, design(&m, &fixed, &noise, 1e-3).unwrap());
+        let moving: [f64; MAX_STATES] = core::array::from_fn(|i| (d.k[i] + d.k_move[i]) as f64);
+        let r = spectral_radius(&d, &moving, (d.k_filter + d.k_move_filter) as f64);
+        assert!(r < (-18.0f64 * 1e-3).exp(), "{r}");
+    }
+
+    #[test]
     fn the_moving_regulator_holds_every_pole_left_of_its_rate() {
         let m = leading_modes::<3, DESIGN_MODES>(&model()).unwrap();
         let ts = 1e-3;
@@ -924,6 +991,8 @@ mod tests {
                 count_interval: false,
                 identify: false,
                 feedback_lowpass: FILTER,
+                move_rate_unloaded: 0.0,
+                move_rate_payload_kg: 0.0,
             };
             let d = design(&m, &w, &noise, ts).unwrap();
             let base: [f64; MAX_STATES] = core::array::from_fn(|i| d.k[i] as f64);

@@ -48,7 +48,10 @@ pub use pd::PdGains;
 pub use pd_ff::PdFfGains;
 pub use smc::SmcGains;
 pub use smc_i::SmcIGains;
-pub use smc_modal::{SmcModalGains, SMC_MODAL_KD, SMC_MODAL_MOVE_RATE};
+pub use smc_modal::{
+    SmcModalGains, SMC_MODAL_KD, SMC_MODAL_MOVE_RATE, SMC_MODAL_MOVE_RATE_PAYLOAD_KG,
+    SMC_MODAL_MOVE_RATE_UNLOADED,
+};
 pub use smc_strain::StrainSmcGains;
 
 /// Defines a law's gain type: its gains as `f32` fields, named and ordered as the law's

@@ -43,6 +43,8 @@ impl LqgGains {
             kq: self.kq as f64,
             sigma_nm: self.sigma as f64,
             move_rate: options.move_rate,
+            move_rate_unloaded: options.move_rate_unloaded,
+            move_rate_payload_kg: options.move_rate_payload_kg,
             count_interval: options.count_interval,
             identify: options.identify,
             feedback_lowpass: FEEDBACK_LOWPASS_ALPHA as f64,
@@ -90,6 +92,11 @@ impl LqgGains {
 pub struct DesignOptions {
     /// A regulator of this degree of stability while the reference moves, 1/s (0: none).
     pub move_rate: f64,
+    /// The moving regulator's rate without a payload, falling to `move_rate` at
+    /// `move_rate_payload_kg` (`beam_model::lqg::LqgWeights::move_rate_unloaded`; 0: none).
+    pub move_rate_unloaded: f64,
+    /// The payload from which the moving regulator's rate is `move_rate`, kg.
+    pub move_rate_payload_kg: f64,
     /// The encoder read at rest as its count's interval.
     pub count_interval: bool,
     /// The beam's stiffness identified at the start of each move (with the `identify`
@@ -723,7 +730,7 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
 /// p95 grew. It also takes the gauge's and the encoder's noise out of the torque (1.7 N m
 /// the largest peak over the 15 deg sweep, against 3.2). The price is the hold: the
 /// filter's state fed back (`u = -K x - kf f`) leaves the hub a static stiffness of `K /
-/// (1 + kf)`, and smc-modal gives way 0.77 deg under 0.5 N m (0.35 before), lqg 0.54 (0.24).
+/// (1 + kf)`, and smc-modal gives way 0.74 deg under 0.5 N m (0.35 before), lqg 0.54 (0.24).
 pub const FEEDBACK_LOWPASS_HZ: f32 = 27.04;
 
 /// The low-pass's step at the drive's 1 kHz tick, `1 - exp(-2 pi f ts)` for
