@@ -65,6 +65,10 @@ pub struct LqgWeights {
     pub move_rate_unloaded: f64,
     /// The payload from which the moving regulator's rate is [`LqgWeights::move_rate`], kg.
     pub move_rate_payload_kg: f64,
+    /// With a moving regulator ([`LqgWeights::move_rate`] above 0), the hub angle weight of
+    /// the regulator at rest, N m/rad, in place of [`LqgWeights::kp`] (which the moving
+    /// one keeps): a stiffer hold. 0: `kp`.
+    pub rest_kp: f64,
     /// Whether the observer reads the encoder at rest as the count's interval
     /// ([`LqgDesign::count_interval`]), not as a noisy point.
     pub count_interval: bool,
@@ -285,6 +289,7 @@ impl LqgWeights {
             && nonneg(self.move_rate)
             && nonneg(self.move_rate_unloaded)
             && nonneg(self.move_rate_payload_kg)
+            && nonneg(self.rest_kp)
             && pos(self.feedback_lowpass)
             && self.feedback_lowpass <= 1.0
         {
@@ -416,7 +421,15 @@ pub fn design<const N: usize>(
     if (0..nx).any(|i| ad[i][0] != if i == 0 { 1.0 } else { 0.0 }) {
         return Err(LqgError::Numerics);
     }
-    let kfull = regulator(model, &ad, &bd, weights, ts_s, 0.0)?;
+    let rest = if weights.move_rate > 0.0 && weights.rest_kp > 0.0 {
+        LqgWeights {
+            kp: weights.rest_kp,
+            ..*weights
+        }
+    } else {
+        *weights
+    };
+    let kfull = regulator(model, &ad, &bd, &rest, ts_s, 0.0)?;
     let rate = weights.move_rate_at(model.beam.params().tip_mass_kg);
     let kmove = if rate > 0.0 {
         Some(regulator(model, &ad, &bd, weights, ts_s, rate)?)
@@ -819,6 +832,7 @@ mod tests {
             feedback_lowpass: FILTER,
             move_rate_unloaded: 0.0,
             move_rate_payload_kg: 0.0,
+            rest_kp: 0.0,
         };
         let noise = SensorNoise {
             theta_rad: 1e-4,
@@ -934,6 +948,7 @@ mod tests {
             feedback_lowpass: FILTER,
             move_rate_unloaded: 18.0,
             move_rate_payload_kg: 0.025,
+            rest_kp: 0.0,
         };
         assert_eq!(w.move_rate_at(0.0), 18.0);
         assert!((w.move_rate_at(0.0125) - 15.0).abs() < 1e-12);
@@ -972,6 +987,68 @@ mod tests {
     }
 
     #[test]
+    fn a_stiffer_rest_regulator_leaves_the_moving_one_as_it_was() {
+        let m = leading_modes::<3, DESIGN_MODES>(&model()).unwrap();
+        let noise = SensorNoise {
+            theta_rad: 1e-4,
+            encoder_step_rad: 0.0,
+            strain: 1e-6,
+        };
+        let w = LqgWeights {
+            kp: 200.0,
+            kd: 1.0,
+            ki: 0.0,
+            kq: 1e4,
+            sigma_nm: 3.0,
+            move_rate: 12.0,
+            count_interval: false,
+            identify: false,
+            feedback_lowpass: FILTER,
+            move_rate_unloaded: 0.0,
+            move_rate_payload_kg: 0.0,
+            rest_kp: 400.0,
+        };
+        let d = design(&m, &w, &noise, 1e-3).unwrap();
+        let one = |w: LqgWeights| design(&m, &w, &noise, 1e-3).unwrap();
+        // At rest: the regulator on kp 400 alone.
+        let rest = one(LqgWeights {
+            kp: 400.0,
+            move_rate: 0.0,
+            rest_kp: 0.0,
+            ..w
+        });
+        assert_eq!((d.k, d.k_filter), (rest.k, rest.k_filter));
+        // Moving: the moving regulator on kp 200, as without `rest_kp`.
+        let plain = one(LqgWeights { rest_kp: 0.0, ..w });
+        for i in 0..MAX_STATES {
+            let (a, b) = (d.k[i] + d.k_move[i], plain.k[i] + plain.k_move[i]);
+            assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{i}: {a} {b}");
+        }
+        // The hub's static stiffness at rest, `k_theta / (1 + kf)`, is the stiffer one's.
+        let stiffness = |d: &LqgDesign| d.k[0] / (1.0 + d.k_filter);
+        assert!(stiffness(&d) > 1.5 * stiffness(&plain));
+        // Without a moving regulator `rest_kp` is not used.
+        let single = one(LqgWeights {
+            move_rate: 0.0,
+            ..w
+        });
+        assert_eq!(single.k, plain_single(&m, &w, &noise).k);
+    }
+
+    fn plain_single<const N: usize>(
+        m: &ModalModel<N>,
+        w: &LqgWeights,
+        noise: &SensorNoise,
+    ) -> LqgDesign {
+        let w = LqgWeights {
+            move_rate: 0.0,
+            rest_kp: 0.0,
+            ..*w
+        };
+        design(m, &w, noise, 1e-3).unwrap()
+    }
+
+    #[test]
     fn the_moving_regulator_holds_every_pole_left_of_its_rate() {
         let m = leading_modes::<3, DESIGN_MODES>(&model()).unwrap();
         let ts = 1e-3;
@@ -993,6 +1070,7 @@ mod tests {
                 feedback_lowpass: FILTER,
                 move_rate_unloaded: 0.0,
                 move_rate_payload_kg: 0.0,
+                rest_kp: 0.0,
             };
             let d = design(&m, &w, &noise, ts).unwrap();
             let base: [f64; MAX_STATES] = core::array::from_fn(|i| d.k[i] as f64);

@@ -50,7 +50,7 @@ pub use smc::SmcGains;
 pub use smc_i::SmcIGains;
 pub use smc_modal::{
     SmcModalGains, SMC_MODAL_KD, SMC_MODAL_MOVE_RATE, SMC_MODAL_MOVE_RATE_PAYLOAD_KG,
-    SMC_MODAL_MOVE_RATE_UNLOADED,
+    SMC_MODAL_MOVE_RATE_UNLOADED, SMC_MODAL_REST_KP_FACTOR,
 };
 pub use smc_strain::StrainSmcGains;
 

@@ -45,6 +45,7 @@ impl LqgGains {
             move_rate: options.move_rate,
             move_rate_unloaded: options.move_rate_unloaded,
             move_rate_payload_kg: options.move_rate_payload_kg,
+            rest_kp: self.kp as f64 * options.rest_kp_factor,
             count_interval: options.count_interval,
             identify: options.identify,
             feedback_lowpass: FEEDBACK_LOWPASS_ALPHA as f64,
@@ -97,6 +98,9 @@ pub struct DesignOptions {
     pub move_rate_unloaded: f64,
     /// The payload from which the moving regulator's rate is `move_rate`, kg.
     pub move_rate_payload_kg: f64,
+    /// With a moving regulator, the regulator at rest designed on `kp` times this
+    /// (`beam_model::lqg::LqgWeights::rest_kp`; 0: on `kp`).
+    pub rest_kp_factor: f64,
     /// The encoder read at rest as its count's interval.
     pub count_interval: bool,
     /// The beam's stiffness identified at the start of each move (with the `identify`
@@ -730,7 +734,8 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
 /// p95 grew. It also takes the gauge's and the encoder's noise out of the torque (1.7 N m
 /// the largest peak over the 15 deg sweep, against 3.2). The price is the hold: the
 /// filter's state fed back (`u = -K x - kf f`) leaves the hub a static stiffness of `K /
-/// (1 + kf)`, and smc-modal gives way 0.74 deg under 0.5 N m (0.35 before), lqg 0.54 (0.24).
+/// (1 + kf)`, and lqg gives way 0.54 deg under 0.5 N m (0.24 before); smc-modal's regulator
+/// at rest is designed stiffer for it (`SMC_MODAL_REST_KP_FACTOR`): 0.42 deg (0.35 before).
 pub const FEEDBACK_LOWPASS_HZ: f32 = 27.04;
 
 /// The low-pass's step at the drive's 1 kHz tick, `1 - exp(-2 pi f ts)` for
