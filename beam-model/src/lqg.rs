@@ -934,9 +934,10 @@ mod tests {
         (log_scale / f64::from(1u32 << n)).exp()
     }
 
-    #[test]
-    fn the_moving_rate_falls_from_the_unloaded_one_to_its_own_at_the_payload_given() {
-        let w = LqgWeights {
+    /// smc-modal's weights: a moving regulator at 12 1/s, the same at every payload, and
+    /// the same `kp` at rest.
+    fn moving_weights() -> LqgWeights {
+        LqgWeights {
             kp: 200.0,
             kd: 1.0,
             ki: 0.0,
@@ -946,9 +947,18 @@ mod tests {
             count_interval: false,
             identify: false,
             feedback_lowpass: FILTER,
+            move_rate_unloaded: 0.0,
+            move_rate_payload_kg: 0.0,
+            rest_kp: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_moving_rate_falls_from_the_unloaded_one_to_its_own_at_the_payload_given() {
+        let w = LqgWeights {
             move_rate_unloaded: 18.0,
             move_rate_payload_kg: 0.025,
-            rest_kp: 0.0,
+            ..moving_weights()
         };
         assert_eq!(w.move_rate_at(0.0), 18.0);
         assert!((w.move_rate_at(0.0125) - 15.0).abs() < 1e-12);
@@ -995,18 +1005,8 @@ mod tests {
             strain: 1e-6,
         };
         let w = LqgWeights {
-            kp: 200.0,
-            kd: 1.0,
-            ki: 0.0,
-            kq: 1e4,
-            sigma_nm: 3.0,
-            move_rate: 12.0,
-            count_interval: false,
-            identify: false,
-            feedback_lowpass: FILTER,
-            move_rate_unloaded: 0.0,
-            move_rate_payload_kg: 0.0,
             rest_kp: 400.0,
+            ..moving_weights()
         };
         let d = design(&m, &w, &noise, 1e-3).unwrap();
         let one = |w: LqgWeights| design(&m, &w, &noise, 1e-3).unwrap();
@@ -1028,24 +1028,14 @@ mod tests {
         let stiffness = |d: &LqgDesign| d.k[0] / (1.0 + d.k_filter);
         assert!(stiffness(&d) > 1.5 * stiffness(&plain));
         // Without a moving regulator `rest_kp` is not used.
-        let single = one(LqgWeights {
-            move_rate: 0.0,
-            ..w
-        });
-        assert_eq!(single.k, plain_single(&m, &w, &noise).k);
-    }
-
-    fn plain_single<const N: usize>(
-        m: &ModalModel<N>,
-        w: &LqgWeights,
-        noise: &SensorNoise,
-    ) -> LqgDesign {
-        let w = LqgWeights {
-            move_rate: 0.0,
-            rest_kp: 0.0,
-            ..*w
+        let single = |rest_kp| {
+            one(LqgWeights {
+                move_rate: 0.0,
+                rest_kp,
+                ..w
+            })
         };
-        design(m, &w, noise, 1e-3).unwrap()
+        assert_eq!(single(400.0).k, single(0.0).k);
     }
 
     #[test]
