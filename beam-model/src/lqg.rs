@@ -36,6 +36,9 @@ pub const MAX_STATES: usize = 2 + 2 * DESIGN_MODES;
 mod dense;
 use dense::{dare, expm, inverse, mul, transpose, Mat, D, ZERO};
 
+mod closed_loop;
+pub use closed_loop::{loop_radius, LoopSetting};
+
 /// The design's weights: a quadratic cost on the error from the reference and a Gaussian
 /// model of what disturbs and corrupts the loop.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -226,19 +226,7 @@ fn spectral_radius(d: &LqgDesign, k: &[f64; MAX_STATES], kf: f64) -> f64 {
             }
         })
     });
-    // M^(2^12) by squaring, renormalised each time (the radius is the product's).
-    let mut p = m;
-    let mut log_scale = 0.0f64;
-    let n = 12;
-    for _ in 0..n {
-        let sq: [[f64; S]; S] = core::array::from_fn(|i| {
-            core::array::from_fn(|j| (0..nx).map(|l| p[i][l] * p[l][j]).sum())
-        });
-        let big = sq.iter().flatten().fold(0.0f64, |b, v| b.max(v.abs()));
-        log_scale = 2.0 * log_scale + big.ln();
-        p = sq.map(|row| row.map(|v| v / big));
-    }
-    (log_scale / f64::from(1u32 << n)).exp()
+    super::closed_loop::spectral_radius(&m, nx)
 }
 
 /// smc-modal's weights: a moving regulator at 12 1/s, the same at every payload, and
@@ -390,5 +378,61 @@ fn the_moving_regulator_holds_every_pole_left_of_its_rate() {
         )
         .unwrap();
         assert_eq!((bare.k_filter, bare.k_move_filter), (0.0, 0.0));
+    }
+}
+
+#[test]
+fn on_its_own_model_the_loop_has_the_regulators_poles_and_the_observers() {
+    // The separation principle, an independent fact: with the observer on the plant it
+    // models, the loop's poles are the state feedback's (on `[x; f]`) and the observer
+    // error's (`(I - L C) A`), so its radius is the larger of the two.
+    let m = leading_modes::<3, DESIGN_MODES>(&model()).unwrap();
+    let w = LqgWeights {
+        rest_kp: 400.0,
+        move_rate_unloaded: 18.0,
+        move_rate_payload_kg: 0.025,
+        ..moving_weights()
+    };
+    let d = design(&m, &w, &NOISE, 1e-3).unwrap();
+    let ad = |i: usize, j: usize| match j {
+        0 => f64::from(u8::from(i == 0)),
+        _ => d.ad[i][j - 1] as f64,
+    };
+    let mut err = [[0.0; MAX_STATES]; MAX_STATES];
+    for i in 0..MAX_STATES {
+        for j in 0..MAX_STATES {
+            // Row i of (I - L C) A: C's rows are the angle and the strain.
+            let c = |r: usize, l: usize| match r {
+                0 => f64::from(u8::from(l == 0)),
+                _ if (1..=DESIGN_MODES).contains(&l) => d.strain_coef[l - 1] as f64,
+                _ => 0.0,
+            };
+            err[i][j] = ad(i, j)
+                - (0..MAX_STATES)
+                    .map(|l| (0..2).map(|r| d.l[i][r] as f64 * c(r, l)).sum::<f64>() * ad(l, j))
+                    .sum::<f64>();
+        }
+    }
+    let observer = super::closed_loop::spectral_radius(&err, MAX_STATES);
+    for moving in [false, true] {
+        let wt = f64::from(u8::from(moving));
+        let k: [f64; MAX_STATES] =
+            core::array::from_fn(|i| d.k[i] as f64 + wt * d.k_move[i] as f64);
+        let kf = d.k_filter as f64 + wt * d.k_move_filter as f64;
+        let regulator = spectral_radius(&d, &k, kf);
+        let setting = LoopSetting {
+            move_weight: wt,
+            gain: 1.0,
+            lowpass: FILTER,
+            integral: false,
+            stiffness: 1.0,
+        };
+        let whole = loop_radius(&m, &d, setting, 1e-3).unwrap();
+        let both = regulator.max(observer);
+        assert!(
+            (whole - both).abs() < 1e-5,
+            "moving {moving}: {whole} against {regulator} and {observer}"
+        );
+        assert!(whole < 1.0);
     }
 }
