@@ -3,8 +3,9 @@
 //! as the drive's tick runs it, the regulator, and the feedback's low-pass. Linear: the
 //! centrifugal terms are zero at rest, the encoder is read as a point (as while the
 //! reference moves; at rest the drive reads it as its count's interval, which only ever
-//! corrects less), the identifier's stiffness is a given factor on the model's, and a sliding-mode law is
-//! inside its boundary layer, where its switching term is a gain on the regulator's output.
+//! corrects less), the identifier's stiffness is a given factor on the model's, and a
+//! sliding-mode law is inside its boundary layer, where its switching term is a gain on
+//! the regulator's output.
 
 use super::{mass_inverse, sampled_with, LqgDesign, DESIGN_MODES, MAX_STATES};
 use crate::modal::{ModalModel, MAX_MODES};

@@ -34,6 +34,31 @@ gains! {
 
 #[cfg(feature = "observer")]
 impl LqgGains {
+    /// What the LQG law adds to its weights: the beam's stiffness identified at the start of
+    /// each move, as smc-modal's, for its observer alone (its feedback holds the beam to the
+    /// reference beam as the model bends it: the identifier reads a payload's beam as
+    /// softer, 9 % at 50 g, and taking that into the reference stopped the nominal 180 deg
+    /// move at 25 and 50 g 1.1 and 1.3 s after the command, against 0.80 and 0.93 s). One
+    /// regulator throughout, and the encoder read as a point: smc-modal's faster regulator
+    /// while moving shortened this law's p95 on short moves but lengthened it at 90-180 deg
+    /// and broke beams down, and the count's interval at rest lost beams (its integral holds
+    /// the hub by the sub-count estimate; docs/results.md).
+    ///
+    /// Without the identifier, the linear analysis of the sampled loop
+    /// (`beam_model::lqg::loop_radius`) found the loop at rest unstable on a beam 20 %
+    /// stiffer and lighter than the model (its first mode 22 % above the observer's; on the
+    /// nonlinear plant the torque's noise grew from 0.13 to 1.3 N m RMS over 3 s); with it,
+    /// the observer runs on the beam's stiffness once found, and its p95 over 200 beams is
+    /// 0.13-0.21 s shorter at 15-180 deg (docs/results.md).
+    pub const DESIGN_OPTIONS: DesignOptions = DesignOptions {
+        move_rate: 0.0,
+        move_rate_unloaded: 0.0,
+        move_rate_payload_kg: 0.0,
+        rest_kp_factor: 0.0,
+        count_interval: false,
+        identify: true,
+    };
+
     /// The design's weights with `options` (`beam_model::lqg::LqgWeights`).
     pub fn weights(&self, options: DesignOptions) -> LqgWeights {
         LqgWeights {
@@ -156,7 +181,7 @@ pub struct ObserverState {
     /// ([`RING_STEP`]): a gauge residual past its bound is then the loop ringing, not the
     /// gauge failing.
     pub rang: bool,
-    /// What smc-modal's identifier found of the beam this move, and its state.
+    /// What the identifier found of the beam this move, and its state.
     #[cfg(feature = "identify")]
     pub adaptation: Adaptation,
 }
@@ -272,18 +297,22 @@ pub(super) const NO_OBSERVER: LqgDesign = LqgDesign::ZERO;
 impl LawGains for LqgGains {
     /// The shipped rows' weights: a hub stiffness weight of 200 N m/rad, a rate weight of
     /// 1 N m s/rad, an integral weight of 1000, the beam's vibration energy weighted at 1e4
-    /// and a 1.75 N m disturbance for the observer. Chosen by sweeps over beams 20 % off the
+    /// and a 2 N m disturbance for the observer. Chosen by sweeps over beams 20 % off the
     /// model on two seeds (docs/results.md), with the reference beam swung by the torque:
     /// stiffer weights settle a nominal beam sooner but lose beams whose first mode is off
     /// the model's, and an observer that assumes less disturbance follows a beam off the
     /// model too slowly (at 1 N m, 3 of 200 soft, heavy beams went past the strain trip at
-    /// 180 deg).
+    /// 180 deg). 1.75 N m until the law identified the beam's stiffness
+    /// (`LqgGains::DESIGN_OPTIONS`): by the linear analysis of the sampled loop
+    /// (`beam_model::lqg::loop_radius`) a beam 20 % stiffer and lighter, with a hub 20 %
+    /// lighter, still grew at rest on four modes (5.5 1/s) with the stiffness identified;
+    /// at 2 N m no beam at the spread's corners does.
     const START: Self = LqgGains {
         kp: 200.0,
         kd: 1.0,
         ki: 1000.0,
         kq: 10000.0,
-        sigma: 1.75,
+        sigma: 2.0,
     };
 
     /// The LQG law bends a reference beam through the move. When it held the reference
@@ -296,12 +325,14 @@ impl LawGains for LqgGains {
     /// fastest at the torque-limited time.
     const MIN_MOVE_PERIODS: f32 = 0.66;
 
-    /// The design on `plant`; refused on a plant that cannot design one (a [`PlantPoint`])
-    /// and without the `observer` feature. One regulator throughout, and the encoder read as
-    /// a point: smc-modal's faster regulator while moving shortened this law's p95 on short
-    /// moves but lengthened it at 90-180 deg and broke beams down, and the count's interval
-    /// at rest lost beams (its integral holds the hub by the sub-count estimate;
-    /// docs/results.md).
+    /// 1500 ue, as smc-modal's: with the beam's stiffness identified the observer follows a
+    /// soft, heavy beam more closely and the feedback bends it further, to 2020-2051 ue at
+    /// 180 deg over six of seven sets of 200 beams without a budget (1952-1984 on the
+    /// seventh); with it 1760-1825 ue.
+    const PLANNED_STRAIN: f32 = 1.5e-3;
+
+    /// The design on `plant` with `LqgGains::DESIGN_OPTIONS`; refused on a plant that
+    /// cannot design one (a [`PlantPoint`]) and without the `observer` feature.
     fn build(
         &self,
         plain: ControlLaw,
@@ -310,7 +341,7 @@ impl LawGains for LqgGains {
     ) -> Result<ControlLaw, ParamError> {
         #[cfg(feature = "observer")]
         {
-            self.build_with(plain, plant, DesignOptions::default())
+            self.build_with(plain, plant, Self::DESIGN_OPTIONS)
         }
         #[cfg(not(feature = "observer"))]
         {
@@ -357,7 +388,7 @@ pub const INTEGRAL_MAX_RATE_RAD_S: f32 = 5.0;
 #[cfg(feature = "observer")]
 #[inline(always)]
 fn lqg_torque(this: &ControlLaw, x: &Estimate, r: &RefPoint, law: &mut LawState, ts_s: f32) -> f32 {
-    let (ff, feedback, pos) = observe::<false>(this, x, r, law);
+    let (ff, feedback, pos) = observe::<{ cfg!(feature = "identify") }, false>(this, x, r, law);
     if libm::fabsf(r.vel) < INTEGRAL_MAX_RATE_RAD_S {
         law.integral = integrate(
             law.integral,
@@ -419,15 +450,16 @@ dot!(dot5, 5, 0 1 2 3 4);
 /// feedback), and the reference state's hub angle, rad.
 ///
 /// With `IDENTIFY` (and the `identify` feature), the identifier runs at the start of each
-/// move (`identify`, [`LqgDesign::id_a`]) and the
-/// observer and the feedback's reference take what it found; without, neither is compiled
-/// in (the lqg law, whose design carries no identifier).
+/// move (`identify`, [`LqgDesign::id_a`]; not on a design without it) and the observer takes
+/// the stiffness it found, and with `BEND` the feedback's reference the compliance (the
+/// reference beam bent as much more as the beam is softer); without `IDENTIFY`, neither is
+/// compiled in.
 ///
 /// Written out for [`DESIGN_MODES`] = 2 (the layout `[theta, q0, q1, theta', q0', q1']`): a
 /// design with another number of modes does not compile here.
 #[cfg(feature = "observer")]
 #[inline(always)]
-pub(super) fn observe<const IDENTIFY: bool>(
+pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     this: &ControlLaw,
     x: &Estimate,
     r: &RefPoint,
@@ -456,7 +488,7 @@ pub(super) fn observe<const IDENTIFY: bool>(
     // The reference is smooth, so the beam follows it nearly statically and bends in
     // proportion to its compliance; rerunning the reference beam on the beam identified
     // would ring, as it was shaped on the model's.
-    let soft = softer::<IDENTIFY>(state);
+    let soft = if BEND { softer::<IDENTIFY>(state) } else { 1.0 };
     let (tq, tdq) = ([soft * rb[0], soft * rb[1]], [soft * rb[2], soft * rb[3]]);
     let pos = dot2(r.pos, &d.ref_hub, &tq);
     let vel = dot2(r.vel, &d.ref_hub, &tdq);
@@ -662,16 +694,26 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
     }
     let theta = x.theta;
     if id.ticks == 0 {
-        // From rest: the modes unbent.
+        // From rest: the modes unbent, their sensitivity nil, the hub not yet turned. A step
+        // from there adds nothing to the sums and leaves the identifier's beam as it is, so
+        // this tick takes none (its products would be the worst tick's, with the coupling's).
         id.g = clamped_coupling(d);
         id.z = [id.g[0] * theta, id.g[1] * theta];
         id.theta = theta;
+        id.ticks = 1;
+        return None;
     }
     let g = id.g;
     let q = [id.z[0] - g[0] * theta, id.z[1] - g[1] * theta];
     let sensitivity = dot2(0.0, &d.strain_coef, &id.s);
     id.sum_misfit += (x.strain - dot2(0.0, &d.strain_coef, &q)) * sensitivity;
     id.sum_sensitivity += sensitivity * sensitivity;
+    id.ticks += 1;
+    if id.ticks >= IDENTIFY_TICKS {
+        // The fit, with no step of the identifier's beam after it (nothing reads it): the
+        // step's products would be the worst tick's.
+        return fitted(id);
+    }
     // z'' = -Mqq^-1 (Kqq q / lambda + Cq q'), and its derivative at lambda = 1 (the
     // damping's dependence on the stiffness left out), semi-implicit. `ts q' = ts z' - G
     // turn`, the hub's turn over the tick read from the encoder.
@@ -691,8 +733,15 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
         id.z[i] += id.v[i];
         id.s[i] += id.sv[i];
     });
-    id.ticks += 1;
-    if id.ticks < IDENTIFY_TICKS || !(id.sum_sensitivity > 0.0) {
+    None
+}
+
+/// The identifier's Gauss-Newton step on its sums ([`identify`]), on its last tick: the
+/// stiffness and the compliance, each less 1; `None` if the gauge saw nothing to fit.
+#[cfg(feature = "identify")]
+#[inline(always)]
+fn fitted(id: &Identifier) -> Option<[f32; 2]> {
+    if !(id.sum_sensitivity > 0.0) {
         return None;
     }
     let lambda = 1.0 + id.sum_misfit / id.sum_sensitivity;

@@ -106,6 +106,19 @@ pub const SMC_MODAL_MOVE_RATE_PAYLOAD_KG: f64 = 0.025;
 pub const SMC_MODAL_REST_KP_FACTOR: f64 = 2.0;
 
 impl SmcModalGains {
+    /// What the law adds to the LQG design: the moving regulator and its rate by payload,
+    /// the stiffer regulator at rest, the encoder read as its count's interval at rest, and
+    /// the identifier.
+    #[cfg(feature = "observer")]
+    pub const DESIGN_OPTIONS: DesignOptions = DesignOptions {
+        move_rate: SMC_MODAL_MOVE_RATE,
+        move_rate_unloaded: SMC_MODAL_MOVE_RATE_UNLOADED,
+        move_rate_payload_kg: SMC_MODAL_MOVE_RATE_PAYLOAD_KG,
+        rest_kp_factor: SMC_MODAL_REST_KP_FACTOR,
+        count_interval: true,
+        identify: true,
+    };
+
     /// The LQG weights the surface and the observer are designed from.
     pub const fn design_weights(&self) -> LqgGains {
         LqgGains {
@@ -161,18 +174,7 @@ impl LawGains for SmcModalGains {
             let _ = point;
             let law = self
                 .design_weights()
-                .build_with(
-                    plain,
-                    plant,
-                    DesignOptions {
-                        move_rate: SMC_MODAL_MOVE_RATE,
-                        move_rate_unloaded: SMC_MODAL_MOVE_RATE_UNLOADED,
-                        move_rate_payload_kg: SMC_MODAL_MOVE_RATE_PAYLOAD_KG,
-                        rest_kp_factor: SMC_MODAL_REST_KP_FACTOR,
-                        count_interval: true,
-                        identify: true,
-                    },
-                )
+                .build_with(plain, plant, Self::DESIGN_OPTIONS)
                 .map_err(|e| ParamError {
                     field: if e.field == "lqg" {
                         "smc-modal"
@@ -212,7 +214,7 @@ impl LawGains for SmcModalGains {
         {
             let d = &law.observer;
             let (ff, sigma, _) =
-                super::lqg::observe::<{ cfg!(feature = "identify") }>(law, x, r, state);
+                super::lqg::observe::<{ cfg!(feature = "identify") }, true>(law, x, r, state);
             let s = sigma / d.k[super::lqg::RATE];
             let feedback = sigma + d.jeff * self.a * self.switching.apply(self.beta * s);
             super::lqg::applied(state, ff, feedback, d.torque_limit_nm)
