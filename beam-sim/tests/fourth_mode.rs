@@ -149,7 +149,7 @@ fn the_observer_laws_loops_on_four_modes_are_stable_over_the_spread_once_the_bea
     // centre (EI, density and the hub's inertia each 0.8, 1 or 1.2 times the model's) at 0,
     // 25 and 50 g, at rest and while the reference moves. Both laws identify the beam's
     // stiffness in each move's first 0.1 s and run the observer on it from then on: every
-    // pole is then left of -2 1/s (measured 2026-11-27: -4.3 1/s at worst, the integral's
+    // pole is then left of -2 1/s (measured 2026-11-27: -4.28 1/s at worst, the integral's
     // and the hold's slow poles). Before it is found the loop runs on the model's
     // stiffness, and the stiffest, lightest beams grow: by under e^2 over those 0.1 s.
     let scales = [0.8, 1.0, 1.2];
