@@ -18,7 +18,7 @@ use beam_sim::metrics::SettleSpec;
 use beam_sim::sensors::SensorConfig;
 use beam_wire::command::Command;
 use model_core::law::{LawPlant, FEEDBACK_LOWPASS_ALPHA};
-use model_core::lqg::{loop_radius, LoopSetting, LqgDesign, LqgWeights};
+use model_core::lqg::{loop_radius, LoopSetting, LqgDesign, LqgWeights, DESIGN_MODES};
 use model_core::{Beam, BeamParams, ControlLaw, LawKind, ModalModel, Mode, SmcModalGains};
 
 const TARGET_RAD: f64 = core::f64::consts::FRAC_PI_2;
@@ -119,12 +119,9 @@ fn shipped_loop(kind: LawKind, payload_kg: f64, moving: bool) -> (LqgDesign, Loo
         .unwrap()
         .observer_design()
         .unwrap();
-    // smc-modal inside its boundary layer: the surface is `sigma / K_rate`, and the switching
-    // term adds `Jeff A beta` of it to the regulator's `sigma`.
-    let gain = match law.gains::<SmcModalGains>() {
-        Some(g) => 1.0 + f64::from(d.jeff * g.a * g.beta / d.k[3]),
-        None => 1.0,
-    };
+    let gain = law
+        .gains::<SmcModalGains>()
+        .map_or(1.0, |g| switching_gain(&d, &g));
     let setting = LoopSetting {
         move_weight: f64::from(u8::from(moving)),
         gain,
@@ -133,6 +130,13 @@ fn shipped_loop(kind: LawKind, payload_kg: f64, moving: bool) -> (LqgDesign, Loo
         stiffness: 1.0,
     };
     (d, setting)
+}
+
+/// smc-modal's gain on its regulator inside the boundary layer: the surface is `sigma /
+/// K_rate`, and the switching term adds `Jeff A beta` of it to the regulator's `sigma`.
+fn switching_gain(d: &LqgDesign, g: &SmcModalGains) -> f64 {
+    let rate = 1 + DESIGN_MODES;
+    1.0 + f64::from(d.jeff * g.a * g.beta / d.k[rate])
 }
 
 /// The slowest pole of the loop, 1/s (positive: it grows).
@@ -215,7 +219,7 @@ fn without_its_low_pass_designed_in_the_loop_rings_on_the_fourth_mode_alone() {
     for moving in [false, true] {
         let setting = LoopSetting {
             move_weight: f64::from(u8::from(moving)),
-            gain: 1.0 + f64::from(bare.jeff * g.a * g.beta / bare.k[3]),
+            gain: switching_gain(&bare, &g),
             lowpass: 1.0,
             integral: false,
             stiffness: 1.0,

@@ -7,6 +7,7 @@
 //! sliding-mode law is inside its boundary layer, where its switching term is a gain on
 //! the regulator's output.
 
+use super::dense::mul;
 use super::{mass_inverse, sampled_with, LqgDesign, DESIGN_MODES, MAX_STATES};
 use crate::modal::{ModalModel, MAX_MODES};
 
@@ -125,18 +126,7 @@ pub(super) fn spectral_radius<const S: usize>(m: &[[f64; S]; S], n: usize) -> f6
     let mut p = *m;
     let mut log_scale = 0.0f64;
     for _ in 0..SQUARINGS {
-        let mut sq = [[0.0; S]; S];
-        for i in 0..n {
-            for k in 0..n {
-                let pik = p[i][k];
-                if pik == 0.0 {
-                    continue;
-                }
-                for j in 0..n {
-                    sq[i][j] += pik * p[k][j];
-                }
-            }
-        }
+        let sq = mul(&p, &p, n);
         let big = sq.iter().flatten().fold(0.0f64, |b, v| b.max(v.abs()));
         if !(big > 0.0 && big.is_finite()) {
             // Nilpotent (or overflowed, which renormalising each time rules out).

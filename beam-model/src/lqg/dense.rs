@@ -26,8 +26,10 @@ fn identity(n: usize) -> Mat {
     a
 }
 
-pub(super) fn mul(a: &Mat, b: &Mat, n: usize) -> Mat {
-    let mut c = ZERO;
+/// `a b` on the leading `n` by `n` blocks, for matrices of any one size (the design's
+/// [`Mat`], the closed loop's larger one).
+pub(super) fn mul<const S: usize>(a: &[[f64; S]; S], b: &[[f64; S]; S], n: usize) -> [[f64; S]; S] {
+    let mut c = [[0.0; S]; S];
     for i in 0..n {
         for k in 0..n {
             let aik = a[i][k];

@@ -15,7 +15,12 @@ const NOISE: SensorNoise = SensorNoise {
 };
 
 fn model() -> ModalModel<3> {
-    ModalModel::try_build(&Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
+    model_of(BeamParams::aluminium())
+}
+
+/// The modal model of `params` on `N` modes.
+fn model_of<const N: usize>(params: BeamParams) -> ModalModel<N> {
+    ModalModel::try_build(&Beam::try_build(params).unwrap()).unwrap()
 }
 
 #[test]
@@ -54,15 +59,11 @@ fn the_sampled_model_has_the_pinned_frequencies_and_a_rigid_mode() {
     // continuous poles: two at 1 (the rigid body) and, per mode, a pair on the unit
     // circle at the pinned (hub-free) frequency, which the modal model finds by its own
     // eigen-solver. So Ad's trace is 2 + sum 2 cos(w ts).
-    let m: ModalModel<3> = ModalModel::try_build(
-        &Beam::try_build(BeamParams {
-            damping_ratio: 0.0,
-            viscous_nms: 0.0,
-            ..BeamParams::aluminium()
-        })
-        .unwrap(),
-    )
-    .unwrap();
+    let m: ModalModel<3> = model_of(BeamParams {
+        damping_ratio: 0.0,
+        viscous_nms: 0.0,
+        ..BeamParams::aluminium()
+    });
     let ts = 1e-3;
     let (ad, _) = sampled_with(&m, &mass_inverse(&m).unwrap(), ts).unwrap();
     let trace: f64 = (0..8).map(|i| ad[i][i]).sum();
@@ -80,14 +81,10 @@ fn the_reference_beam_is_the_beam_the_rigid_torque_drives() {
     // under a, plus the reference beam swinging on it: the hub at theta_r + ref_hub . q.
     // Checked against the sampled torque-driven model (`sampled_with`, the observer's),
     // through a bang-coast-bang acceleration held over each tick, and after it.
-    let m: ModalModel<2> = ModalModel::try_build(
-        &Beam::try_build(BeamParams {
-            viscous_nms: 0.0,
-            ..BeamParams::aluminium()
-        })
-        .unwrap(),
-    )
-    .unwrap();
+    let m: ModalModel<2> = model_of(BeamParams {
+        viscous_nms: 0.0,
+        ..BeamParams::aluminium()
+    });
     let ts = 1e-3;
     let minv = mass_inverse(&m).unwrap();
     let (ad, bd) = sampled_with(&m, &minv, ts).unwrap();

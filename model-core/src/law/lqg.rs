@@ -512,7 +512,7 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
         state.move_weight *= MOVE_FADE_PER_TICK;
     } else {
         state.move_weight = 1.0;
-        adapt::<IDENTIFY>(d, x, state);
+        adapt::<IDENTIFY, BEND>(d, x, state);
         unrolled!(i in [0 1 2 3] => {
             let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
             state.reference[i] = if i < DESIGN_MODES {
@@ -631,7 +631,11 @@ fn stiffer<const IDENTIFY: bool>(state: &ObserverState) -> f32 {
 /// `IDENTIFY`.
 #[cfg(feature = "identify")]
 #[inline(always)]
-fn adapt<const IDENTIFY: bool>(d: &LqgDesign, x: &Estimate, state: &mut ObserverState) {
+fn adapt<const IDENTIFY: bool, const BEND: bool>(
+    d: &LqgDesign,
+    x: &Estimate,
+    state: &mut ObserverState,
+) {
     if !IDENTIFY {
         return;
     }
@@ -642,7 +646,10 @@ fn adapt<const IDENTIFY: bool>(d: &LqgDesign, x: &Estimate, state: &mut Observer
         id.compliance = compliance;
     }
     a.stiffness += COMPLIANCE_BLEND_PER_TICK * (id.stiffness - a.stiffness);
-    a.compliance += COMPLIANCE_BLEND_PER_TICK * (id.compliance - a.compliance);
+    // Only a law whose reference bends by it (`observe`'s `BEND`) reads the compliance.
+    if BEND {
+        a.compliance += COMPLIANCE_BLEND_PER_TICK * (id.compliance - a.compliance);
+    }
 }
 
 /// Without the `identify` feature the observer laws take the model as it is.
@@ -662,7 +669,12 @@ fn stiffer<const IDENTIFY: bool>(_: &ObserverState) -> f32 {
 /// See [`softer`].
 #[cfg(all(feature = "observer", not(feature = "identify")))]
 #[inline(always)]
-fn adapt<const IDENTIFY: bool>(_: &LqgDesign, _: &Estimate, _: &mut ObserverState) {}
+fn adapt<const IDENTIFY: bool, const BEND: bool>(
+    _: &LqgDesign,
+    _: &Estimate,
+    _: &mut ObserverState,
+) {
+}
 
 /// `G = Mqq^-1 h`, how far the hub's angle moves the clamped modes' coordinates, m per rad,
 /// from the reference beam's numbers (a design carries no more for it): the hub-free modes'
