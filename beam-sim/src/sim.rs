@@ -104,6 +104,9 @@ pub struct Motion {
     pub via: Via,
     /// Ignore `time_s` and take the shortest time the planner's limits allow.
     pub shortest: bool,
+    /// A shortest move to a target is planned to leave an observer law's reference beam at
+    /// rest (`model_core::planner::exact`); other laws and moves plan as before.
+    pub exact: bool,
 }
 
 /// Waypoints a move passes through before its target, rad: at most
@@ -139,6 +142,7 @@ impl Default for Motion {
             timing: Timing::Stretch,
             via: Via::default(),
             shortest: false,
+            exact: false,
         }
     }
 }
@@ -426,6 +430,7 @@ impl Known {
             d.ref_bd = beam.ref_bd;
             d.ref_hub = beam.ref_hub;
             d.ref_s = beam.ref_s;
+            d.ref_hz = beam.ref_hz;
             d.mtt = beam.mtt;
             d.viscous = beam.viscous;
             d.torque_limit_nm = beam.torque_limit_nm;
@@ -488,6 +493,11 @@ pub fn simulate_knowing<const N: usize>(
         ControlLaw::try_build(law, on)
     }
     .map_err(|e| SimError::Config(e.into()))?;
+    let limits = if opts.motion.exact {
+        limits.with_reference_beam(&law, settings.ts_s)
+    } else {
+        limits
+    };
     let controller = Controller::try_build(settings, law, opts.motion.plan(&limits)?)
         .map_err(SimError::Config)?;
     run(Plant::new(*plant), controller, opts)

@@ -6,8 +6,10 @@
 /// defined once there, so a command that decodes is a command the planner takes.
 pub use beam_wire::command::MAX_WAYPOINTS;
 
-/// Most impulses any input shaper has (ZVD and EI have three).
-pub const MAX_IMPULSES: usize = 3;
+/// Most impulses a move is shaped by: ZVD and EI have three, and the reference planned
+/// exact on a law's reference beam (`planner::exact`, with the `exact` feature) four, two
+/// for each of its modes.
+pub const MAX_IMPULSES: usize = if cfg!(feature = "exact") { 4 } else { 3 };
 
 /// Knots of an unshaped planned move: the start and the waypoints.
 pub const PLAN_KNOTS: usize = MAX_WAYPOINTS + 1;

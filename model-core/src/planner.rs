@@ -21,10 +21,15 @@ pub use crate::error::PlanError;
 use crate::law::Law;
 use crate::modal::ModalModel;
 use crate::plant::PlantPoint;
-use crate::shaper::{shape, Shaper, ShaperKind};
+use crate::shaper::{shape_by, Impulses, Shaper};
 use crate::spline::{Peaks, Spline};
 
 pub use crate::knots::{BASE_KNOTS, MAX_WAYPOINTS, PLAN_KNOTS, SHAPED_PLAN_KNOTS};
+
+#[cfg(feature = "exact")]
+pub mod exact;
+#[cfg(feature = "exact")]
+pub use exact::ReferenceBeam;
 
 /// Shortest segment between waypoints, s: one tick.
 pub const MIN_SEGMENT_S: f32 = 1e-3;
@@ -64,6 +69,11 @@ pub struct Limits {
     /// Root strain per unit hub acceleration of the plant, the beam bent statically
     /// ([`PlantPoint::strain_per_acc`]), strain per rad/s^2.
     pub strain_per_acc: f32,
+    /// The law's reference beam, when the shortest moves to a target are planned to leave
+    /// it at rest ([`exact`], [`Limits::with_reference_beam`]); `None` plans them as any
+    /// other move (the shaped quintic).
+    #[cfg(feature = "exact")]
+    pub reference_beam: Option<ReferenceBeam>,
 }
 
 impl Limits {
@@ -92,6 +102,8 @@ impl Limits {
             min_segment_s: 0.0,
             strain_budget: 0.0,
             strain_per_acc: p.strain_per_acc,
+            #[cfg(feature = "exact")]
+            reference_beam: None,
         }
     }
 
@@ -110,6 +122,20 @@ impl Limits {
             },
             strain_budget: law.planned_strain(),
             ..Self::for_plant(model)
+        }
+    }
+
+    /// These limits with the reference beam of `law` run every `ts_s`, so that the shortest
+    /// moves to a target are planned to leave it at rest ([`exact`]); none for a law
+    /// without one (no observer).
+    #[cfg(feature = "exact")]
+    pub fn with_reference_beam(self, law: &crate::law::ControlLaw, ts_s: f32) -> Self {
+        let beam = law
+            .observer_design()
+            .and_then(|d| ReferenceBeam::of(d, ts_s));
+        Self {
+            reference_beam: beam,
+            ..self
         }
     }
 
@@ -202,21 +228,25 @@ pub struct Plan {
     pub shaped: PlannedMove,
     /// The move before shaping.
     pub base: Spline<BASE_KNOTS>,
-    /// The shaper applied.
-    pub shaper: Shaper,
+    /// The impulse train it was shaped by (a stop is shaped by it too).
+    pub impulses: Impulses,
 }
 
 impl Plan {
     fn new(base: Spline<BASE_KNOTS>, shaper: &Shaper) -> Result<Self, PlanError> {
-        let shaped = if shaper.kind == ShaperKind::None {
+        Self::shaped_by(base, &shaper.impulses()?)
+    }
+
+    fn shaped_by(base: Spline<BASE_KNOTS>, impulses: &Impulses) -> Result<Self, PlanError> {
+        let shaped = if impulses.iter().count() <= 1 {
             Spline::try_from_states(&base.states::<BASE_KNOTS>())?
         } else {
-            shape(&base, shaper)?
+            shape_by(&base, impulses)?
         };
         Ok(Self {
             shaped,
             base,
-            shaper: *shaper,
+            impulses: *impulses,
         })
     }
 }
@@ -250,6 +280,18 @@ pub fn plan_through(
     limits: &Limits,
 ) -> Result<Plan, PlanError> {
     let limits = &checked(from, waypoints, time_s, limits)?;
+    // The shortest move to a target for a law that asks: planned to leave its reference
+    // beam at rest (or, if that fails, as any other move).
+    #[cfg(feature = "exact")]
+    if let (Some(beam), None, [target]) = (&limits.reference_beam, time_s, waypoints) {
+        if target.at_s.is_none() {
+            if let Some(plan) = exact::plan(from, target.rad, limits, beam)? {
+                if limits.admits(&plan.shaped.peaks()) {
+                    return Ok(plan);
+                }
+            }
+        }
+    }
     let timed = waypoints.iter().filter(|w| w.at_s.is_some()).count();
     let given = timed == waypoints.len();
     if (timed != 0 && !given) || (given && time_s.is_some()) {
@@ -520,7 +562,7 @@ fn stop_within(
             // (The stop's peak rate is the cut's; its rounding may put it a step above.)
             && p.max_abs_vel <= limits.max_speed_rad_s.max(libm::fabsf(r.vel) * 1.001)
         {
-            return Plan::new(stopped, &plan.shaper);
+            return Plan::shaped_by(stopped, &plan.impulses);
         }
         t *= 1.1;
     }
@@ -558,6 +600,7 @@ mod tests {
     use super::*;
     use crate::beam::{Beam, BeamParams};
     use crate::modal::ModalModel;
+    use crate::shaper::ShaperKind;
     use proptest::prelude::*;
 
     fn limits() -> Limits {

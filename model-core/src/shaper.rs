@@ -55,11 +55,7 @@ impl Shaper {
     /// The impulse train, or why the parameters are unusable.
     pub fn impulses(&self) -> Result<Impulses, ShaperError> {
         if self.kind == ShaperKind::None {
-            return Ok(Impulses {
-                amps: [1.0, 0.0, 0.0],
-                times: [0.0; MAX_IMPULSES],
-                len: 1,
-            });
+            return Ok(Impulses::ONE);
         }
         let (f, zeta, v) = (self.freq_hz, self.damping, self.tolerance);
         if !(f.is_finite() && f > 0.0) {
@@ -73,7 +69,7 @@ impl Shaper {
         let period = 1.0 / (f * root);
         let k = libm::expf(-zeta * core::f32::consts::PI / root);
         let (amps, times, len) = match self.kind {
-            ShaperKind::None => ([1.0, 0.0, 0.0], [0.0; 3], 1),
+            ShaperKind::None => ([1.0, 0.0, 0.0], [0.0; 3], 1usize),
             ShaperKind::Zv => {
                 let s = 1.0 + k;
                 ([1.0 / s, k / s, 0.0], [0.0, period / 2.0, 0.0], 2)
@@ -111,7 +107,11 @@ impl Shaper {
         if amps[..len].iter().any(|a| !(*a > 0.0)) {
             return Err(ShaperError::Damping);
         }
-        Ok(Impulses { amps, times, len })
+        let mut train = Impulses::ONE;
+        train.amps[..3].copy_from_slice(&amps);
+        train.times[..3].copy_from_slice(&times);
+        train.len = len;
+        Ok(train)
     }
 }
 
@@ -124,6 +124,46 @@ pub struct Impulses {
 }
 
 impl Impulses {
+    /// One impulse at zero: the move unshaped.
+    pub const ONE: Impulses = {
+        let mut amps = [0.0; MAX_IMPULSES];
+        amps[0] = 1.0;
+        Impulses {
+            amps,
+            times: [0.0; MAX_IMPULSES],
+            len: 1,
+        }
+    };
+
+    /// The train that applies `self` and then `other` (their convolution): each pair's
+    /// product at the sum of their times, in the order of `self`'s impulses, then
+    /// `other`'s. `None` if it would hold more than [`MAX_IMPULSES`].
+    pub fn then(&self, other: &Impulses) -> Option<Impulses> {
+        let mut train = Impulses::ONE;
+        train.len = self.len * other.len;
+        if train.len > MAX_IMPULSES {
+            return None;
+        }
+        let mut slots = train.amps.iter_mut().zip(train.times.iter_mut());
+        for (a, t) in self.iter() {
+            for (b, u) in other.iter() {
+                let (amp, time) = slots.next()?;
+                (*amp, *time) = (a * b, t + u);
+            }
+        }
+        Some(train)
+    }
+
+    /// Two impulses: `1 - share` at zero and `share` at `delay_s`, the zero-vibration
+    /// family's pair (a ZV is `share = k / (1 + k)` at half a damped period).
+    pub fn pair(share: f32, delay_s: f32) -> Impulses {
+        let mut train = Impulses::ONE;
+        (train.amps[0], train.amps[1]) = (1.0 - share, share);
+        train.times[1] = delay_s;
+        train.len = 2;
+        train
+    }
+
     /// `(amplitude, time_s)` of each impulse.
     pub fn iter(&self) -> impl Iterator<Item = (f32, f32)> + '_ {
         // (`take`, not slicing: no bounds-check panic on the drive's command path.)
@@ -324,7 +364,14 @@ pub fn shape<const K: usize, const K2: usize>(
     move_: &Spline<K>,
     shaper: &Shaper,
 ) -> Result<Spline<K2>, ShaperError> {
-    let impulses = shaper.impulses()?;
+    shape_by(move_, &shaper.impulses()?)
+}
+
+/// [`shape`] by an impulse train of any origin (the last impulse's time the latest).
+pub fn shape_by<const K: usize, const K2: usize>(
+    move_: &Spline<K>,
+    impulses: &Impulses,
+) -> Result<Spline<K2>, ShaperError> {
     let mut all = [0.0f32; crate::knots::SHAPED_PLAN_KNOTS];
     let mut count = 0;
     for (_, ti) in impulses.iter() {

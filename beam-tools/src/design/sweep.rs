@@ -36,6 +36,9 @@ pub struct SweepSpec {
     /// Plan each move (of `moves_deg`) with model-core's planner at the shortest time its
     /// limits allow, as a commanded drive does, rather than at [`planned_time_s`].
     pub shortest: bool,
+    /// Plan the shortest moves to leave an observer law's reference beam at rest
+    /// (`beam_sim::sim::Motion::exact`).
+    pub exact: bool,
     /// Each move (of `moves_deg`) in this time, s, rather than at [`planned_time_s`] (shaped
     /// and stretched by the law's shaper, as `beam simulate --time S`).
     pub move_time_s: Option<f64>,
@@ -89,6 +92,8 @@ pub struct Perturbation {
     pub move_deg: Option<f64>,
     /// Plan it at the planner's shortest time.
     pub shortest: bool,
+    /// Plan it exact on the law's reference beam ([`SweepSpec::exact`]).
+    pub exact: bool,
     /// Its time, s, if not the planned one ([`SweepSpec::move_time_s`]).
     pub move_time_s: Option<f64>,
 }
@@ -123,6 +128,7 @@ impl Perturbation {
             move_deg: (!spec.moves_deg.is_empty())
                 .then(|| spec.moves_deg[index % spec.moves_deg.len()]),
             shortest: spec.shortest && !spec.moves_deg.is_empty(),
+            exact: spec.exact,
             move_time_s: spec.move_time_s,
         }
     }
@@ -143,6 +149,7 @@ impl Perturbation {
                     shaper,
                     timing: Timing::Stretch,
                     shortest: self.shortest,
+                    exact: self.exact,
                     ..Motion::default()
                 }
             }
@@ -420,6 +427,7 @@ mod tests {
             coulomb_max_nm: 0.0,
             moves_deg: vec![],
             shortest: false,
+            exact: false,
             move_time_s: None,
             duration_s: DEFAULT_DURATION_S,
             settle: SettleSpec::default(),

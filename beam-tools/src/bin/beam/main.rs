@@ -209,6 +209,11 @@ pub(crate) struct MoveArgs {
         value_parser = parse_move_time
     )]
     time: MoveTime,
+    /// With `--time shortest` and an observer law: plan the move to leave the law's
+    /// reference beam at rest, a bang-coast-bang move shaped on it by Newton's method
+    /// (docs/design.md, section 3), instead of the shaped quintic.
+    #[arg(long)]
+    exact: bool,
     /// Pass through these hub angles on the way to --move, deg (at most 7; planned by
     /// model-core's planner, as the drive does).
     #[arg(
@@ -269,6 +274,11 @@ impl MoveArgs {
             }
             MoveTime::Shortest => (0.0, true),
         };
+        if self.exact && !(shortest && self.via.is_empty()) {
+            bail!(
+                "--exact plans the shortest move to a target: give --time shortest, and no --via"
+            );
+        }
         if self
             .via
             .iter()
@@ -317,6 +327,7 @@ impl MoveArgs {
             timing,
             via,
             shortest,
+            exact: self.exact,
         };
         // A single timed move is checked here; the planner's moves need the drive's model
         // for their limits and are checked when they are planned.

@@ -433,6 +433,7 @@ fn scenarios(
         coulomb_max_nm: 0.0,
         moves_deg: vec![],
         shortest: false,
+        exact: false,
         move_time_s: None,
         duration_s: beam_tools::design::sweep::DEFAULT_DURATION_S,
         settle: Default::default(),

@@ -198,6 +198,12 @@ pub(crate) fn default_law(
 }
 
 pub(crate) fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
+    if a.motion.exact && !a.controller.has_observer() {
+        bail!(
+            "--exact plans on an observer law's reference beam; {} has none (use lqg or smc-modal)",
+            a.controller.name()
+        );
+    }
     if a.true_state && !a.controller.has_observer() {
         bail!(
             "--true-state feeds an observer law's state; {} has no observer (use lqg or smc-modal)",

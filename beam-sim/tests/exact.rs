@@ -1,0 +1,141 @@
+//! The shortest move planned to leave smc-modal's reference beam at rest (model-core's
+//! `planner::exact`), checked on the nonlinear three-mode plant, which the planner never
+//! sees: its reference beam is the design's two modes, sampled, in `f32`.
+
+mod common;
+
+use beam_sim::metrics::metrics;
+use beam_sim::sensors::SensorConfig;
+use beam_sim::sim::{settings_for, simulate, Motion, SimOptions};
+use model_core::planner::exact::{self, ReferenceBeam, MAX_RESIDUAL_STRAIN};
+use model_core::planner::Limits;
+use model_core::{BeamParams, ControlLaw, LawKind, ModalModel, PlannedMove};
+
+fn model() -> ModalModel<3> {
+    ModalModel::try_build(&model_core::Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
+}
+
+/// The shortest move over `deg`, from the shipped table's smc-modal at no payload, planned
+/// exact on its reference beam or as the shaped quintic.
+fn planned(deg: f32, exact: bool) -> PlannedMove {
+    let m = model();
+    let kind = LawKind::SmcModal;
+    let law = common::shipped().law(kind, 0.0).unwrap();
+    let built = ControlLaw::try_build(law, SensorConfig::default().instruments().on(&m)).unwrap();
+    let ts = settings_for(&m, &SensorConfig::default()).ts_s;
+    let limits = Limits::for_law(&m, &law);
+    let limits = if exact {
+        limits.with_reference_beam(&built, ts)
+    } else {
+        limits
+    };
+    let motion = Motion {
+        from_rad: -0.5 * deg.to_radians(),
+        to_rad: 0.5 * deg.to_radians(),
+        shortest: true,
+        exact,
+        shaper: common::shipped().shaper(kind, 0.0),
+        ..Motion::default()
+    };
+    motion.plan(&limits).unwrap()
+}
+
+/// On the nominal beam, closed loop (the shipped smc-modal with its observer, the
+/// simulated sensors' noise), the exact move ends sooner than the shaped quintic and
+/// settles sooner, strictly (hub within 0.05 deg and root strain within 5 ue for good, on
+/// the plant's own outputs), without bending the beam past 2000 ue.
+#[test]
+fn on_the_nominal_beam_the_exact_move_settles_sooner() {
+    let m = model();
+    let law = common::shipped().law(LawKind::SmcModal, 0.0).unwrap();
+    for deg in [15.0f32, 45.0, 90.0, 180.0] {
+        let run = |exact: bool| {
+            let opts = SimOptions {
+                duration_s: 1.5,
+                motion: Motion {
+                    from_rad: -0.5 * deg.to_radians(),
+                    to_rad: 0.5 * deg.to_radians(),
+                    shortest: true,
+                    exact,
+                    shaper: common::shipped().shaper(LawKind::SmcModal, 0.0),
+                    ..Motion::default()
+                },
+                ..SimOptions::default()
+            };
+            let r = simulate(&m, law, &opts).unwrap();
+            let k = metrics(&r);
+            (
+                planned(deg, exact).duration_s(),
+                k.settle_s.unwrap(),
+                k.peak_root_strain_ue.unwrap(),
+            )
+        };
+        let (exact, quintic) = (run(true), run(false));
+        assert!(
+            exact.0 < quintic.0,
+            "{deg} deg: ends {exact:?} against {quintic:?}"
+        );
+        assert!(
+            exact.1 < quintic.1,
+            "{deg} deg: settles {exact:?} against {quintic:?}"
+        );
+        assert!(exact.2 < 2000.0, "{deg} deg: {exact:?}");
+    }
+}
+
+/// smc-modal's limits and reference beam on the aluminium beam, from the shipped table.
+fn limits_and_beam() -> (Limits, ReferenceBeam) {
+    let m = model();
+    let law = common::shipped().law(LawKind::SmcModal, 0.0).unwrap();
+    let built = ControlLaw::try_build(law, SensorConfig::default().instruments().on(&m)).unwrap();
+    let limits = Limits::for_law(&m, &law).with_reference_beam(&built, model_core::DEFAULT_TS_S);
+    let beam = limits
+        .reference_beam
+        .expect("smc-modal has a reference beam");
+    (limits, beam)
+}
+
+/// The base keeps the planner's limits and ends at rest on its target, whatever the move's
+/// length (from one that only ramps to one that coasts at the speed limit).
+#[test]
+fn the_base_keeps_the_limits_and_ends_at_rest_on_the_target() {
+    let (l, _) = limits_and_beam();
+    for deg in [0.5f32, 1.0, 15.0, 45.0, 90.0, 180.0, -120.0] {
+        let (from, to) = (-0.5 * deg.to_radians(), 0.5 * deg.to_radians());
+        let b = exact::base(from, to, &l).unwrap();
+        let end = b.eval(b.duration_s());
+        assert_eq!((end.pos, end.vel, end.acc), (to, 0.0, 0.0), "{deg} deg");
+        assert!(l.admits(&b.peaks()), "{deg} deg: {:?}", b.peaks());
+        // At rest at the start, and moving only towards the target.
+        assert_eq!(b.eval(0.0).vel, 0.0);
+        for k in 1..100 {
+            let v = b.eval(b.duration_s() * k as f32 / 100.0).vel;
+            assert!(v * (to - from) >= 0.0, "{deg} deg at {k} %: {v}");
+        }
+    }
+}
+
+/// Newton's method leaves the reference beam's first mode at rest at the end of every move,
+/// as the law's tick runs it, though the mode's frequency moves with the hub's speed.
+#[test]
+fn newton_leaves_the_reference_beam_at_rest() {
+    let (l, beam) = limits_and_beam();
+    for deg in [15.0f32, 45.0, 90.0, 180.0] {
+        let (from, to) = (-0.5 * deg.to_radians(), 0.5 * deg.to_radians());
+        let plan = exact::plan(from, to, &l, &beam).unwrap();
+        let plan = plan.unwrap_or_else(|| panic!("{deg} deg not planned"));
+        let (end, _) = beam.run(&plan.shaped);
+        let q = beam.first_mode(&end);
+        assert!(
+            q[0].abs().max(q[1].abs()) < MAX_RESIDUAL_STRAIN,
+            "{deg}: {q:?}"
+        );
+        // The unshaped base leaves it ringing (a ZV tuned to the mode at rest, far less).
+        let (ringing, _) = beam.run(&plan.base);
+        let r = beam.first_mode(&ringing);
+        assert!(
+            r[0].hypot(r[1]) > 10.0 * MAX_RESIDUAL_STRAIN,
+            "{deg}: {r:?}"
+        );
+    }
+}
