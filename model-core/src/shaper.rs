@@ -21,6 +21,12 @@ pub use beam_kinds::ShaperKind;
 pub use crate::error::ShaperError;
 pub use crate::knots::MAX_IMPULSES;
 
+/// Most impulses of a configured shaper's train (ZVD and EI have three): the shaped
+/// quintic's knots are sized by it, whatever [`MAX_IMPULSES`] a build allows (so that a
+/// move's knots computed by a build script fit the drive's type with or without the
+/// `exact` feature).
+pub const SHAPER_IMPULSES: usize = 3;
+
 /// Breaks of a shaped move closer than this are merged into one, s. A piece a few
 /// microseconds long, rebuilt in `f32` from its end states, divides position rounding by
 /// its length squared and shows accelerations of thousands of rad/s^2 that the move does
@@ -231,7 +237,7 @@ pub enum MoveKnots {
     /// Knot states `(time, position, velocity, acceleration)`, the first `len` of them.
     States {
         /// The states.
-        states: [(f32, f32, f32, f32); 2 * MAX_IMPULSES],
+        states: [(f32, f32, f32, f32); 2 * SHAPER_IMPULSES],
         /// How many are used.
         len: usize,
     },
@@ -294,7 +300,7 @@ pub fn shaped_quintic_knots(
     }
     // Breaks: where each shifted quintic starts and ends. Breaks closer than
     // [`MIN_BREAK_S`] are one (see there).
-    let mut breaks = [0.0f32; 2 * MAX_IMPULSES];
+    let mut breaks = [0.0f32; 2 * SHAPER_IMPULSES];
     for (i, (_, t)) in impulses.iter().enumerate() {
         breaks[2 * i] = t;
         breaks[2 * i + 1] = t + base;
@@ -316,7 +322,7 @@ pub fn shaped_quintic_knots(
         }
         (p, v, a)
     };
-    let mut points = [(0.0f32, 0.0f32, 0.0f32, 0.0f32); 2 * MAX_IMPULSES];
+    let mut points = [(0.0f32, 0.0f32, 0.0f32, 0.0f32); 2 * SHAPER_IMPULSES];
     for (slot, &t) in points.iter_mut().zip(breaks.iter()) {
         let (p, v, a) = state(t);
         *slot = (t, p, v, a);
