@@ -280,12 +280,13 @@ pub fn plan_through(
     limits: &Limits,
 ) -> Result<Plan, PlanError> {
     let limits = &checked(from, waypoints, time_s, limits)?;
-    // The shortest move to a target for a law that asks: planned to leave its reference
-    // beam at rest (or, if that fails, as any other move).
+    // The shortest move to a target, when the limits carry the law's reference beam:
+    // planned to leave it at rest (or, if that cannot be done within the limits, as any
+    // other move).
     #[cfg(feature = "exact")]
     if let (Some(beam), None, [target]) = (&limits.reference_beam, time_s, waypoints) {
         if target.at_s.is_none() {
-            if let Some(plan) = exact::plan(from, target.rad, limits, beam)? {
+            if let Ok(Some(plan)) = exact::plan(from, target.rad, limits, beam) {
                 if limits.admits(&plan.shaped.peaks()) {
                     return Ok(plan);
                 }
