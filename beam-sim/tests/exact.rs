@@ -5,11 +5,16 @@
 mod common;
 
 use beam_sim::metrics::metrics;
+use beam_sim::plant::Plant;
 use beam_sim::sensors::SensorConfig;
-use beam_sim::sim::{settings_for, simulate, Motion, SimOptions};
+use beam_sim::sim::{run_with, settings_for, simulate, DriveLoop, Motion, SimError, SimOptions};
+use model_core::lqg::{DESIGN_MODES, MAX_STATES};
 use model_core::planner::exact::{self, ReferenceBeam, MAX_RESIDUAL_STRAIN};
 use model_core::planner::Limits;
-use model_core::{BeamParams, ControlLaw, LawKind, ModalModel, PlannedMove};
+use model_core::{
+    BeamParams, ControlLaw, Controller, ControllerSettings, FaultFlags, LawKind, ModalModel,
+    PlannedMove, RawMeasurement, TorqueCommand,
+};
 
 fn model() -> ModalModel<3> {
     ModalModel::try_build(&model_core::Beam::try_build(BeamParams::aluminium()).unwrap()).unwrap()
@@ -124,18 +129,85 @@ fn newton_leaves_the_reference_beam_at_rest() {
         let (from, to) = (-0.5 * deg.to_radians(), 0.5 * deg.to_radians());
         let plan = exact::plan(from, to, &l, &beam).unwrap();
         let plan = plan.unwrap_or_else(|| panic!("{deg} deg not planned"));
-        let (end, _) = beam.run(&plan.shaped);
-        let q = beam.first_mode(&end);
+        let q = beam.first_mode(&beam.run(&plan.shaped));
         assert!(
             q[0].abs().max(q[1].abs()) < MAX_RESIDUAL_STRAIN,
             "{deg}: {q:?}"
         );
         // The unshaped base leaves it ringing (a ZV tuned to the mode at rest, far less).
-        let (ringing, _) = beam.run(&plan.base);
-        let r = beam.first_mode(&ringing);
+        let r = beam.first_mode(&beam.run(&plan.base));
         assert!(
             r[0].hypot(r[1]) > 10.0 * MAX_RESIDUAL_STRAIN,
             "{deg}: {r:?}"
         );
+    }
+}
+
+/// The law's controller, and its reference beam after each tick.
+struct Recording<const K: usize> {
+    controller: Controller<K>,
+    reference: Vec<[f32; 2 * DESIGN_MODES]>,
+}
+
+impl<const K: usize> DriveLoop for Recording<K> {
+    fn settings(&self) -> &ControllerSettings {
+        self.controller.settings()
+    }
+
+    fn tick(&mut self, raw: &RawMeasurement, start: bool) -> Result<TorqueCommand, SimError> {
+        let cmd = DriveLoop::tick(&mut self.controller, raw, start)?;
+        self.reference
+            .push(self.controller.law_state().lqg.reference);
+        Ok(cmd)
+    }
+
+    fn faults(&self) -> FaultFlags {
+        self.controller.faults()
+    }
+
+    fn feed_truth(&mut self, x: &[f32; MAX_STATES]) {
+        self.controller.feed_truth(x)
+    }
+}
+
+/// The planner runs the reference beam as the law's tick does: on the nominal beam (whose
+/// stiffness the identifier reads as the model's, so the tick's reference beam is not
+/// bent), the law's own reference beam on its last tick before the exact move ends is the
+/// state the planner's run ends in, to f32 rounding.
+#[test]
+fn the_planner_runs_the_reference_beam_as_the_tick_does() {
+    let m = model();
+    let law = common::shipped().law(LawKind::SmcModal, 0.0).unwrap();
+    let (_, beam) = limits_and_beam();
+    for deg in [15.0f32, 90.0, 180.0] {
+        let spline = planned(deg, true);
+        let opts = SimOptions {
+            duration_s: spline.duration_s() as f64 + 0.05,
+            idle_ticks: 0,
+            ..SimOptions::default()
+        };
+        let settings = ControllerSettings {
+            theta_home_rad: spline.start(),
+            ..settings_for(&m, &opts.sensors)
+        };
+        let built = ControlLaw::try_build(law, opts.sensors.instruments().on(&m)).unwrap();
+        let mut rec = Recording {
+            controller: Controller::try_build(settings, built, spline.clone()).unwrap(),
+            reference: vec![],
+        };
+        run_with(Plant::new(m), &mut rec, &spline, &opts).unwrap();
+        // The last state before the tick at rest sets the reference beam to rest.
+        let tick = rec
+            .reference
+            .iter()
+            .rposition(|r| r.iter().any(|x| *x != 0.0))
+            .unwrap();
+        let (law_end, planned_end) = (rec.reference[tick], beam.run(&spline));
+        for (a, b) in law_end.iter().zip(planned_end.iter()) {
+            assert!(
+                (a - b).abs() <= 1e-4 * b.abs().max(1e-6),
+                "{deg} deg: the tick's {law_end:?}, the planner's {planned_end:?}"
+            );
+        }
     }
 }
