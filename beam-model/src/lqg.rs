@@ -168,9 +168,6 @@ pub struct LqgDesign {
     /// `ts Mf^-1 S`, added to the reference beam's rates as `theta'^2 ref_s q`. At the
     /// speeds of a fast slew it changes the beam's stiffness by a fifth.
     pub ref_s: [[f32; DESIGN_MODES]; DESIGN_MODES],
-    /// The reference beam's natural frequencies at rest, Hz: the design model's hub-free
-    /// (pinned) modes. A planner that shapes a move on the reference beam starts from them.
-    pub ref_hz: [f32; DESIGN_MODES],
     /// The centrifugal term in the observer's prediction, per (rad/s)^2 of hub rate and per
     /// tick: `ts M^-1 [0; S]`, the hub's and the modes' accelerations from `w^2 S q`; row 0 is
     /// the hub's, row `1 + i` mode i's.
@@ -218,7 +215,6 @@ impl LqgDesign {
         ref_bd: [0.0; 2 * DESIGN_MODES],
         ref_hub: [0.0; DESIGN_MODES],
         ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
-        ref_hz: [0.0; DESIGN_MODES],
         obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
         jeff: 0.0,
         mtt: 0.0,
@@ -262,7 +258,6 @@ impl LqgDesign {
             ref_ad: rows(&a.ref_ad, &b.ref_ad, m),
             ref_bd: each(&a.ref_bd, &b.ref_bd, m),
             ref_hub: each(&a.ref_hub, &b.ref_hub, m),
-            ref_hz: each(&a.ref_hz, &b.ref_hz, m),
             ref_s: rows(&a.ref_s, &b.ref_s, m),
             obs_s: rows(&a.obs_s, &b.obs_s, m),
             jeff: m(a.jeff, b.jeff),
@@ -688,7 +683,6 @@ fn reference_beam<const N: usize>(
     }
     for i in 0..N {
         out.ref_hub[i] = (-model.h[i] / model.mtt) as f32;
-        out.ref_hz[i] = model.pinned_hz[i] as f32;
         for j in 0..N {
             out.ref_s[i][j] = ((0..N).map(|l| mf(i, l) * model.s[l][j]).sum::<f64>() * ts_s) as f32;
         }

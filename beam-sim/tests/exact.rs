@@ -30,7 +30,7 @@ fn planned(deg: f32, exact: bool) -> PlannedMove {
     let ts = settings_for(&m, &SensorConfig::default()).ts_s;
     let limits = Limits::for_law(&m, &law);
     let limits = if exact {
-        limits.with_reference_beam(&built, ts)
+        limits.with_reference_beam(&built, &m, ts)
     } else {
         limits
     };
@@ -93,7 +93,8 @@ fn limits_and_beam() -> (Limits, ReferenceBeam) {
     let m = model();
     let law = common::shipped().law(LawKind::SmcModal, 0.0).unwrap();
     let built = ControlLaw::try_build(law, SensorConfig::default().instruments().on(&m)).unwrap();
-    let limits = Limits::for_law(&m, &law).with_reference_beam(&built, model_core::DEFAULT_TS_S);
+    let limits =
+        Limits::for_law(&m, &law).with_reference_beam(&built, &m, model_core::DEFAULT_TS_S);
     let beam = limits
         .reference_beam
         .expect("smc-modal has a reference beam");

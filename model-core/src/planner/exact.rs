@@ -65,10 +65,13 @@ pub struct ReferenceBeam {
 }
 
 impl ReferenceBeam {
-    /// The reference beam of `design`, run every `ts_s`; `None` for a design without one
-    /// (a law with no observer) or with a frequency that is not positive.
-    pub fn of(design: &LqgDesign, ts_s: f32) -> Option<Self> {
-        let hz = design.ref_hz;
+    /// The reference beam of `design`, run every `ts_s`, whose frequencies at rest are `hz`
+    /// (Hz: the hub-free, pinned, modes of the model the design was made on,
+    /// `ModalModel::pinned_hz`; the planner's starting points, carried here rather than in
+    /// the design, which a board holds and has no use for them); `None` for a design
+    /// without a reference beam (a law with no observer) or a frequency that is not
+    /// positive.
+    pub fn of(design: &LqgDesign, hz: [f32; DESIGN_MODES], ts_s: f32) -> Option<Self> {
         let usable = hz.iter().all(|f| f.is_finite() && *f > 0.0)
             && ts_s.is_finite()
             && ts_s > 0.0
