@@ -7,13 +7,11 @@ mod common;
 use beam_sim::metrics::metrics;
 use beam_sim::plant::Plant;
 use beam_sim::sensors::SensorConfig;
-use beam_sim::sim::{run_with, settings_for, simulate, DriveLoop, Motion, SimError, SimOptions};
-use model_core::lqg::{DESIGN_MODES, MAX_STATES};
+use beam_sim::sim::{run_with, settings_for, simulate, Motion, SimOptions};
 use model_core::planner::exact::{self, ReferenceBeam, MAX_RESIDUAL_STRAIN};
 use model_core::planner::Limits;
 use model_core::{
-    BeamParams, ControlLaw, Controller, ControllerSettings, FaultFlags, LawKind, ModalModel,
-    PlannedMove, RawMeasurement, TorqueCommand,
+    BeamParams, ControlLaw, Controller, ControllerSettings, LawKind, ModalModel, PlannedMove,
 };
 
 fn model() -> ModalModel<3> {
@@ -144,33 +142,6 @@ fn newton_leaves_the_reference_beam_at_rest() {
     }
 }
 
-/// The law's controller, and its reference beam after each tick.
-struct Recording<const K: usize> {
-    controller: Controller<K>,
-    reference: Vec<[f32; 2 * DESIGN_MODES]>,
-}
-
-impl<const K: usize> DriveLoop for Recording<K> {
-    fn settings(&self) -> &ControllerSettings {
-        self.controller.settings()
-    }
-
-    fn tick(&mut self, raw: &RawMeasurement, start: bool) -> Result<TorqueCommand, SimError> {
-        let cmd = DriveLoop::tick(&mut self.controller, raw, start)?;
-        self.reference
-            .push(self.controller.law_state().lqg.reference);
-        Ok(cmd)
-    }
-
-    fn faults(&self) -> FaultFlags {
-        self.controller.faults()
-    }
-
-    fn feed_truth(&mut self, x: &[f32; MAX_STATES]) {
-        self.controller.feed_truth(x)
-    }
-}
-
 /// The planner runs the reference beam as the law's tick does: on the nominal beam (whose
 /// stiffness the identifier reads as the model's, so the tick's reference beam is not
 /// bent), the law's own reference beam on its last tick before the exact move ends is the
@@ -192,18 +163,16 @@ fn the_planner_runs_the_reference_beam_as_the_tick_does() {
             ..settings_for(&m, &opts.sensors)
         };
         let built = ControlLaw::try_build(law, opts.sensors.instruments().on(&m)).unwrap();
-        let mut rec = Recording {
-            controller: Controller::try_build(settings, built, spline.clone()).unwrap(),
-            reference: vec![],
-        };
+        let controller = Controller::try_build(settings, built, spline.clone()).unwrap();
+        let mut rec = common::Recording::new(controller);
         run_with(Plant::new(m), &mut rec, &spline, &opts).unwrap();
         // The last state before the tick at rest sets the reference beam to rest.
         let tick = rec
-            .reference
+            .states
             .iter()
-            .rposition(|r| r.iter().any(|x| *x != 0.0))
+            .rposition(|s| s.reference.iter().any(|x| *x != 0.0))
             .unwrap();
-        let (law_end, planned_end) = (rec.reference[tick], beam.run(&spline));
+        let (law_end, planned_end) = (rec.states[tick].reference, beam.run(&spline));
         for (a, b) in law_end.iter().zip(planned_end.iter()) {
             assert!(
                 (a - b).abs() <= 1e-4 * b.abs().max(1e-6),

@@ -11,42 +11,15 @@ mod common;
 use beam_sim::plant::Plant;
 use beam_sim::sensors::SensorConfig;
 use beam_sim::sim::{
-    run_with, settings_for, simulate_knowing, simulate_mismatched, DriveLoop, Known, Motion,
-    SimError, SimOptions, SimResult, TrueState, HAND_PICKED_LQG,
+    run_with, settings_for, simulate_knowing, simulate_mismatched, Known, Motion, SimOptions,
+    SimResult, TrueState, HAND_PICKED_LQG,
 };
 use model_core::law::LawPlant;
 use model_core::lqg::{LqgDesign, LqgError, LqgWeights, DESIGN_MODES, MAX_STATES};
 use model_core::{
-    Beam, BeamParams, ControlLaw, Controller, ControllerSettings, FaultFlags, Law, Limits,
-    ModalModel, PlantPoint, RawMeasurement, TorqueCommand,
+    Beam, BeamParams, ControlLaw, Controller, ControllerSettings, Law, Limits, ModalModel,
+    PlantPoint,
 };
-
-/// The controller, recording its observer's estimate after every tick.
-struct Recording<const K: usize> {
-    controller: Controller<K>,
-    estimates: Vec<[f32; MAX_STATES]>,
-}
-
-impl<const K: usize> DriveLoop for Recording<K> {
-    fn settings(&self) -> &ControllerSettings {
-        self.controller.settings()
-    }
-
-    fn tick(&mut self, raw: &RawMeasurement, start: bool) -> Result<TorqueCommand, SimError> {
-        let cmd = DriveLoop::tick(&mut self.controller, raw, start)?;
-        self.estimates
-            .push(self.controller.law_state().lqg.estimate);
-        Ok(cmd)
-    }
-
-    fn faults(&self) -> FaultFlags {
-        self.controller.faults()
-    }
-
-    fn feed_truth(&mut self, x: &[f32; MAX_STATES]) {
-        self.controller.feed_truth(x)
-    }
-}
 
 fn model(params: BeamParams) -> ModalModel<3> {
     ModalModel::try_build(&Beam::try_build(params).unwrap()).unwrap()
@@ -123,10 +96,7 @@ fn observed_or_fed(
     let spline = opts.motion.plan(&Limits::for_law(&n, &lqg)).unwrap();
     let reference = spline.clone();
     let controller = Controller::try_build(settings, law, spline).unwrap();
-    let mut rec = Recording {
-        controller,
-        estimates: vec![],
-    };
+    let mut rec = common::Recording::new(controller);
     let run = run_with(Plant::new(p), &mut rec, &reference, &opts).unwrap();
     assert!(
         run.breakdown.is_none() && run.faults.is_empty(),
@@ -134,7 +104,7 @@ fn observed_or_fed(
         run.breakdown,
         run.faults
     );
-    (run, rec.estimates)
+    (run, rec.states.iter().map(|s| s.estimate).collect())
 }
 
 /// Relative RMS errors of the estimated mid-span strain, tip deflection and hub rate over a
@@ -549,10 +519,8 @@ fn identified_at(plant: BeamParams, deg: f32, payload_kg: f32) -> f32 {
     let law = common::shipped().law(kind, payload_kg).unwrap();
     let spline = opts.motion.plan(&Limits::for_law(&n, &law)).unwrap();
     let built = ControlLaw::try_build(law, opts.sensors.instruments().on(&n)).unwrap();
-    let mut rec = Recording {
-        controller: Controller::try_build(settings, built, spline.clone()).unwrap(),
-        estimates: vec![],
-    };
+    let mut rec =
+        common::Recording::new(Controller::try_build(settings, built, spline.clone()).unwrap());
     run_with(Plant::new(p), &mut rec, &spline, &opts).unwrap();
     1.0 + rec
         .controller

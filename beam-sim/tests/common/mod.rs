@@ -36,3 +36,45 @@ pub fn run_shipped(
     )
     .map_err(|e| e.to_string())
 }
+
+/// A drive that records the observer laws' state after each tick (`model_core`'s
+/// `ObserverState`: the estimate, the reference beam, the identifier), else the controller
+/// itself.
+pub struct Recording<const K: usize> {
+    pub controller: model_core::Controller<K>,
+    pub states: Vec<model_core::law::ObserverState>,
+}
+
+impl<const K: usize> Recording<K> {
+    /// Recording `controller`'s ticks, from none.
+    pub fn new(controller: model_core::Controller<K>) -> Self {
+        Self {
+            controller,
+            states: vec![],
+        }
+    }
+}
+
+impl<const K: usize> beam_sim::sim::DriveLoop for Recording<K> {
+    fn settings(&self) -> &model_core::ControllerSettings {
+        self.controller.settings()
+    }
+
+    fn tick(
+        &mut self,
+        raw: &model_core::RawMeasurement,
+        start: bool,
+    ) -> Result<model_core::TorqueCommand, beam_sim::sim::SimError> {
+        let cmd = beam_sim::sim::DriveLoop::tick(&mut self.controller, raw, start)?;
+        self.states.push(self.controller.law_state().lqg);
+        Ok(cmd)
+    }
+
+    fn faults(&self) -> model_core::FaultFlags {
+        self.controller.faults()
+    }
+
+    fn feed_truth(&mut self, x: &[f32; model_core::lqg::MAX_STATES]) {
+        self.controller.feed_truth(x)
+    }
+}
