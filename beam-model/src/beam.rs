@@ -98,6 +98,20 @@ impl BeamParams {
     pub fn rho_kg_m(&self) -> f64 {
         self.density_kg_m3 * self.width_m * self.thickness_m
     }
+
+    /// The root gauge's strain per unit hub acceleration (rad/s^2) of the beam bent
+    /// statically by it, from the root moment alone (no modes): each element at `r + x`
+    /// from the axis carries `rho (r + x)` of inertial load per metre and the payload
+    /// `Mt (r + L)`; the moment they make at the gauge, over `EI`, is the curvature there,
+    /// and half the thickness times it the strain. Its magnitude: the modal models' sign is
+    /// theirs.
+    pub fn static_root_strain_per_acc(&self) -> f64 {
+        let (r, l, g) = (self.hub_radius_m, self.length_m, self.root_gauge_m);
+        // int_g^L (r + x)(x - g) dx, in closed form.
+        let f = |x: f64| r * (x * x / 2.0 - g * x) + x * x * x / 3.0 - g * x * x / 2.0;
+        let moment = self.rho_kg_m() * (f(l) - f(g)) + self.tip_mass_kg * (r + l) * (l - g);
+        0.5 * self.thickness_m * moment / self.ei_nm2
+    }
 }
 
 /// Validated beam parameters.

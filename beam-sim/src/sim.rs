@@ -409,6 +409,7 @@ impl Known {
             d.ad = beam.ad;
             d.bd = beam.bd;
             d.strain_coef = beam.strain_coef;
+            d.strain_omitted = beam.strain_omitted;
             d.obs_s = beam.obs_s;
             d.count_interval = beam.count_interval;
             d.id_a = beam.id_a;

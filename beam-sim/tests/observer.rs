@@ -490,6 +490,11 @@ fn identified(plant: BeamParams, deg: f32) -> f32 {
 /// [`identified`] with `payload_kg` at the tip of both the beam and the drive's model, and
 /// the table's rows at that payload.
 fn identified_at(plant: BeamParams, deg: f32, payload_kg: f32) -> f32 {
+    identified_over(plant, deg, payload_kg, None)
+}
+
+/// [`identified_at`], the move over `time_s` (`None`: the planner's shortest).
+fn identified_over(plant: BeamParams, deg: f32, payload_kg: f32, time_s: Option<f32>) -> f32 {
     let nominal = BeamParams {
         tip_mass_kg: payload_kg as f64,
         ..BeamParams::aluminium()
@@ -506,7 +511,8 @@ fn identified_at(plant: BeamParams, deg: f32, payload_kg: f32) -> f32 {
         motion: Motion {
             from_rad: 0.0,
             to_rad: deg.to_radians(),
-            shortest: true,
+            shortest: time_s.is_none(),
+            time_s: time_s.unwrap_or(Motion::default().time_s),
             shaper: common::shipped().shaper(kind, payload_kg),
             ..Motion::default()
         },
@@ -532,19 +538,25 @@ fn identified_at(plant: BeamParams, deg: f32, payload_kg: f32) -> f32 {
 }
 
 /// smc-modal's identifier fits the beam's stiffness against its density, `EI / rho` against
-/// the model's (the ratio its frequencies go with), in the move's first 0.1 s: within 3 % on
+/// the model's (the ratio its frequencies go with), in the move's first 0.1 s: within 4 % on
 /// beams whose EI or density is 20 % off the model, within 10 % with both off the other way
 /// (the fit's one Gauss-Newton step falls short of the soft corner), held to 3/2 at the
-/// stiff corner; the model's own beam is read as the model (within the dead band), and with a
-/// payload as softer, by its two modes' shortfall of root strain.
+/// stiff corner; the model's own beam is read as the model (within the dead band), with a
+/// payload too, to 3 %.
+///
+/// The one step reads every beam off the model stiffer than it is (measured: by 1.9-3.8 %
+/// with EI or density 20 % off, 7.8-9.3 % at the soft corner). Before the design expected
+/// the strain of the modes it leaves out (`LqgDesign::strain_omitted`), the identifier read
+/// that strain as softness, which offset about 1 % of it (and read the model's own beam 5-9
+/// % softer with 50 g at the tip); the bound was 3 % then.
 #[test]
 fn the_drive_identifies_the_beams_stiffness_at_the_start_of_a_move() {
     let nominal = BeamParams::aluminium();
     let cases = [
         (1.0, 1.0, 0.0),
-        (0.8, 1.0, 0.03),
-        (1.2, 1.0, 0.03),
-        (1.0, 1.2, 0.03),
+        (0.8, 1.0, 0.04),
+        (1.2, 1.0, 0.04),
+        (1.0, 1.2, 0.04),
         (0.8, 1.2, 0.1),
         (1.2, 0.8, 0.03),
     ];
@@ -562,18 +574,40 @@ fn the_drive_identifies_the_beams_stiffness_at_the_start_of_a_move() {
                 "{deg} deg, EI x{ei}, density x{rho}: found {found}, the beam's {truth}"
             );
         }
-        // With a payload the model's own beam reads softer, never stiffer: the clamped
-        // beam's root strain under a steady hub acceleration, from its exact root moment,
-        // is 1.0 % (0 g) and 2.6 % (50 g) more than the identifier's two modes give, and
-        // the simulated three modes' 3.4 % more at 50 g (docs/identification.md). Measured:
-        // 0.95-0.98 at 25 g, 0.91-0.95 at 50 g.
-        for (payload, within) in [(0.025, 0.06), (0.05, 0.10)] {
+        // With a payload the model's own beam reads as the model, or a little softer, never
+        // stiffer: the clamped beam's root strain under a steady hub acceleration, from its
+        // exact root moment, is 1.0 % (0 g) and 2.6 % (50 g) more than the identifier's two
+        // modes give (docs/identification.md), and the design expects that much more
+        // (`LqgDesign::strain_omitted`); the simulated three modes give 0.8 % more still at
+        // 50 g. Measured: 1 (the dead band) at 25 g, 0.974-0.977 at 50 g (0.95-0.98 and
+        // 0.91-0.95 when the design did not expect it).
+        for (payload, within) in [(0.025, 0.03), (0.05, 0.03)] {
             let found = identified_at(nominal, deg, payload);
             assert!(
                 found <= 1.0 && found >= 1.0 - within,
                 "{deg} deg, the model's own beam with {payload} kg: found {found}"
             );
         }
+    }
+}
+
+/// A move that starts too gently to bend the beam much (90 deg over 2 s: its first 0.1 s
+/// give the fit 1e-8 of summed squared sensitivity, against 4e-6 and more for the planner's
+/// shortest moves) is not fitted (`MIN_FIT_SENSITIVITY`): the drive runs it on the model, on
+/// a beam 20 % softer too. Fitted, such moves read the model's own beam 3-9 % off.
+#[test]
+fn a_move_too_gentle_to_fit_runs_on_the_model() {
+    let nominal = BeamParams::aluminium();
+    for ei in [1.0, 0.8] {
+        let beam = BeamParams {
+            ei_nm2: nominal.ei_nm2 * ei,
+            ..nominal
+        };
+        assert_eq!(identified_over(beam, 90.0, 0.0, Some(2.0)), 1.0, "EI x{ei}");
+        // The same move at the shortest time is fitted, and off the model on the softer
+        // beam.
+        let shortest = identified_over(beam, 90.0, 0.0, None);
+        assert!(ei == 1.0 || shortest < 0.9, "EI x{ei}: {shortest}");
     }
 }
 

@@ -323,6 +323,11 @@ struct State {
     /// Added to the reference's angle: a brake's plan is moved onto the hub where its first
     /// tick finds it (0 for a move).
     ref_offset: f32,
+    /// The reference's acceleration at the last slewing tick's point, rad/s^2, that of this
+    /// tick is extrapolated from for a law with an observer ([`Brake::takes_gauge_loss`]).
+    /// 0 where a move or a brake is taken up: every plan starts with no acceleration (a move
+    /// from rest, a brake from a coast).
+    last_acc: f32,
 }
 
 /// The drive's range, rad: moves are planned within +-this of the encoder's zero (the

@@ -24,7 +24,8 @@ pub struct Brake {
     pub takes_hold: bool,
     /// The law cannot run without the gauge (its observer reads it): on a gauge fault the
     /// drive's own law takes the move and the hold over. The other laws run on, on a strain
-    /// of zero.
+    /// of zero. Set for exactly the laws with an observer, and so what the tick reads to give
+    /// them the acceleration held over the tick (`crate::spline::held_acceleration`).
     pub takes_gauge_loss: bool,
 }
 

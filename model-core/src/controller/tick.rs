@@ -122,6 +122,7 @@ impl<const K: usize> Controller<K> {
                 st.mode = Mode::Slewing;
                 st.ticks = 0;
                 st.segment = 0;
+                st.last_acc = 0.0;
                 st.last_strain = None;
                 st.strain_rate = 0.0;
                 st.braking = st.brake_pending;
@@ -228,6 +229,15 @@ impl<const K: usize> Controller<K> {
             if t >= cfg.spline.duration_s() {
                 st.mode = Mode::Holding;
             } else {
+                // For a law with an observer (those that take a gauge's loss), the
+                // acceleration the torque is held at until the next tick: the reference's
+                // over the tick, not at its start (`held_acceleration`). The other laws are
+                // given the latter.
+                let acc = reference.acc;
+                if cfg.brake.takes_gauge_loss {
+                    reference.acc = crate::spline::held_acceleration(acc, st.last_acc);
+                }
+                st.last_acc = acc;
                 st.ticks += 1;
             }
         }

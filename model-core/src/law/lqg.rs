@@ -258,6 +258,19 @@ pub const COMPLIANCE_FADE_STRAIN: [f32; 2] = [1.5e-3, 1.9e-3];
 #[cfg(feature = "identify")]
 pub const IDENTIFY_TICKS: u32 = 100;
 
+/// The least sum of the squared sensitivity of the root strain to the compliance over the
+/// identifier's ticks (strain^2) that it fits on; below it, the move runs on the model. A
+/// strain the fit does not model, coherent with the sensitivity, moves the compliance by at
+/// most its RMS times `sqrt(IDENTIFY_TICKS / sum)` (Cauchy-Schwarz): here 16 % for 5 ue, the
+/// settle band's beam still ringing. The planner's shortest moves of 5 deg and more sum
+/// more than 3e-7 (4e-6 to 2e-5 from 15 deg on the model's beam, 3e-7 to 1e-6 at 15 deg
+/// with 50 g on a beam a third stiffer, which, run on the model, rang at 5 N m in the
+/// hold); a 20 rad move, or 90 deg over 2 s, start too gently
+/// (1e-8 to 5e-8), and their fits read the model's own beam 3-9 % off, a 20 rad move after
+/// a brake 30 % (which the loop did not survive at 20 rad/s).
+#[cfg(feature = "identify")]
+pub const MIN_FIT_SENSITIVITY: f32 = 1e-7;
+
 /// The stiffness the identifier may find against the model's, as a factor: the beams the
 /// drive is designed for (EI and density each within 20 %, so their ratio within 2/3 to 3/2).
 /// A fit outside it (a gauge reading wrong) is held to it.
@@ -426,6 +439,9 @@ macro_rules! unrolled {
 /// `opt-level = "z"` a loop or an iterator chain is not unrolled (measured: the observer's
 /// iterator loops cost three times their multiply-adds).
 #[cfg(feature = "observer")]
+// `init + a . x`, the products added in order. A plain dot product starts from -0.0, not 0.0:
+// `-0.0 + y` is `y` for every `y`, so the compiler drops the add, where `0.0 + y` (which turns
+// -0.0 into 0.0) is an add (seven of them in the observer laws' tick).
 macro_rules! dot {
     ($name:ident, $n:literal, $($i:literal)*) => {
         #[inline(always)]
@@ -495,7 +511,16 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     // The hub rate squared: the centrifugal term (minus the foreshortening) of the
     // reference beam, `Mf^-1 S w^2 q` in the modes' equations.
     let w2 = vel * vel;
-    let ff = d.mtt * r.acc + d.viscous * vel;
+    // `r.acc` is the acceleration the torque is held at over this tick while a move runs
+    // (`crate::spline::held_acceleration`): the feedforward and the reference beam take it,
+    // as the held torque swings the beam.
+    let acc = r.acc;
+    let at_rest = r.vel == 0.0 && acc == 0.0;
+    // The strain the modes the design leaves out bend the root by, at the held acceleration
+    // (`LqgDesign::strain_omitted`): the gauge reads it on top of the design's modes, and
+    // both the observer and the identifier expect it.
+    let omitted = d.strain_omitted * acc;
+    let ff = d.mtt * acc + d.viscous * vel;
     // Made here, not where it is returned: left to itself, LLVM loads these coefficients
     // now, spills them to the stack over the reference beam's step and adds them up after
     // it (about 30 instructions of the drive's tick). `black_box` pins the sum to this
@@ -506,19 +531,18 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
     // it there too; the law cannot tell that pause from the end.)
     // Each row is stored as it is made (an array made first is stored and copied).
-    let at_rest = r.vel == 0.0 && r.acc == 0.0;
     if at_rest {
         state.reference = [0.0; 2 * DESIGN_MODES];
         state.move_weight *= MOVE_FADE_PER_TICK;
     } else {
         state.move_weight = 1.0;
-        adapt::<IDENTIFY, BEND>(d, x, state);
+        adapt::<IDENTIFY, BEND>(d, x, state, omitted);
         unrolled!(i in [0 1 2 3] => {
-            let z = dot4(d.ref_bd[i] * r.acc, &d.ref_ad[i], &rb);
+            let z = dot4(d.ref_bd[i] * acc, &d.ref_ad[i], &rb);
             state.reference[i] = if i < DESIGN_MODES {
                 z
             } else {
-                z + w2 * dot2(0.0, &d.ref_s[i - DESIGN_MODES], &rq)
+                z + w2 * dot2(-0.0, &d.ref_s[i - DESIGN_MODES], &rq)
             };
         });
     }
@@ -553,7 +577,7 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
             0.0
         }
     };
-    let innov_strain = x.strain - d.strain_coef[0] * head[1] - d.strain_coef[1] * head[2];
+    let innov_strain = x.strain - omitted - d.strain_coef[0] * head[1] - d.strain_coef[1] * head[2];
     // What each sensor says against what the observer expected it to say (the drive's
     // sensor monitor reads these, `Controller::step_in`).
     const K: f32 = 1.0 / RESIDUAL_TICKS;
@@ -584,7 +608,7 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     unrolled!(i in [3 4 5] => {
         update!(
             i,
-            dot5(d.bd[i] * u_last, &d.ad[i], &xk) + w2_est * dot2(0.0, &d.obs_s[i - RATE], &q_est)
+            dot5(d.bd[i] * u_last, &d.ad[i], &xk) + w2_est * dot2(-0.0, &d.obs_s[i - RATE], &q_est)
         )
     });
     state.strain_estimate =
@@ -635,13 +659,14 @@ fn adapt<const IDENTIFY: bool, const BEND: bool>(
     d: &LqgDesign,
     x: &Estimate,
     state: &mut ObserverState,
+    omitted: f32,
 ) {
     if !IDENTIFY {
         return;
     }
     let a = &mut state.adaptation;
     let id = &mut a.identifier;
-    if let Some([stiffness, compliance]) = identify(d, x, id) {
+    if let Some([stiffness, compliance]) = identify(d, x, id, omitted) {
         id.stiffness = stiffness;
         id.compliance = compliance;
     }
@@ -673,6 +698,7 @@ fn adapt<const IDENTIFY: bool, const BEND: bool>(
     _: &LqgDesign,
     _: &Estimate,
     _: &mut ObserverState,
+    _: f32,
 ) {
 }
 
@@ -687,7 +713,7 @@ pub fn clamped_coupling(d: &LqgDesign) -> [f32; DESIGN_MODES] {
     const K: f32 = -2.0 / (crate::DEFAULT_TS_S * crate::DEFAULT_TS_S);
     let ph = [K * d.ref_bd[0], K * d.ref_bd[1]];
     let h = [-d.mtt * d.ref_hub[0], -d.mtt * d.ref_hub[1]];
-    let f = d.mtt / (d.mtt + dot2(0.0, &h, &ph));
+    let f = d.mtt / (d.mtt + dot2(-0.0, &h, &ph));
     [f * ph[0], f * ph[1]]
 }
 
@@ -700,7 +726,7 @@ pub fn clamped_coupling(d: &LqgDesign) -> [f32; DESIGN_MODES] {
 /// every other tick, and for a design that does not identify.
 #[cfg(feature = "identify")]
 #[inline(always)]
-fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]> {
+fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier, omitted: f32) -> Option<[f32; 2]> {
     if id.ticks >= IDENTIFY_TICKS || d.id_a[0] == 0.0 {
         return None;
     }
@@ -717,8 +743,8 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
     }
     let g = id.g;
     let q = [id.z[0] - g[0] * theta, id.z[1] - g[1] * theta];
-    let sensitivity = dot2(0.0, &d.strain_coef, &id.s);
-    id.sum_misfit += (x.strain - dot2(0.0, &d.strain_coef, &q)) * sensitivity;
+    let sensitivity = dot2(-0.0, &d.strain_coef, &id.s);
+    id.sum_misfit += (x.strain - omitted - dot2(-0.0, &d.strain_coef, &q)) * sensitivity;
     id.sum_sensitivity += sensitivity * sensitivity;
     id.ticks += 1;
     if id.ticks >= IDENTIFY_TICKS {
@@ -749,11 +775,12 @@ fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier) -> Option<[f32; 2]
 }
 
 /// The identifier's Gauss-Newton step on its sums ([`identify`]), on its last tick: the
-/// stiffness and the compliance, each less 1; `None` if the gauge saw nothing to fit.
+/// stiffness and the compliance, each less 1; `None` if the move's start bent the beam too
+/// little to fit ([`MIN_FIT_SENSITIVITY`]).
 #[cfg(feature = "identify")]
 #[inline(always)]
 fn fitted(id: &Identifier) -> Option<[f32; 2]> {
-    if !(id.sum_sensitivity > 0.0) {
+    if !(id.sum_sensitivity >= MIN_FIT_SENSITIVITY) {
         return None;
     }
     let lambda = 1.0 + id.sum_misfit / id.sum_sensitivity;

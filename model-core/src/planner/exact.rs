@@ -25,7 +25,7 @@
 use super::{Limits, Plan, PlanError, MIN_SEGMENT_S};
 use crate::knots::BASE_KNOTS;
 use crate::shaper::Impulses;
-use crate::spline::Spline;
+use crate::spline::{held_acceleration, Spline};
 use beam_model::lqg::{LqgDesign, DESIGN_MODES};
 
 /// The constant-jerk ramps in and out of the base move's acceleration, s. Shorter ramps
@@ -88,13 +88,15 @@ impl ReferenceBeam {
     }
 
     /// Runs the reference beam over `spline` as the law's tick does (the tick `k` at `k
-    /// ts`; its modes step on the reference's acceleration and on the reference state's
-    /// rate squared), and returns its state when the reference comes to rest at the end,
+    /// ts`; its modes step on the acceleration held over the tick,
+    /// [`crate::spline::held_acceleration`], and on the reference state's rate squared), and
+    /// returns its state when the reference comes to rest at the end,
     /// `[q_0, q_1, q_0', q_1']` (m and m/s). (A restatement of the tick's step, which is
     /// unrolled for its instruction budget; a test holds the two to the same state.)
     pub fn run<const K: usize>(&self, spline: &Spline<K>) -> [f32; 2 * DESIGN_MODES] {
         let mut r = [0.0f32; 2 * DESIGN_MODES];
         let mut segment = 0;
+        let mut last_acc = 0.0;
         let end = spline.duration_s();
         // At most a minute of ticks (`MAX_MOVE_S`): the count bounds the loop.
         for k in 0..(super::MAX_MOVE_S / self.ts_s) as u32 + 2 {
@@ -103,7 +105,10 @@ impl ReferenceBeam {
                 break;
             }
             let p = spline.eval_from(&mut segment, t);
-            if p.vel == 0.0 && p.acc == 0.0 {
+            // The acceleration held over the tick, as the law takes it.
+            let acc = held_acceleration(p.acc, last_acc);
+            last_acc = p.acc;
+            if p.vel == 0.0 && acc == 0.0 {
                 r = [0.0; 2 * DESIGN_MODES];
                 continue;
             }
@@ -111,7 +116,7 @@ impl ReferenceBeam {
             let w2 = vel * vel;
             let mut next = [0.0f32; 2 * DESIGN_MODES];
             for (i, n) in next.iter_mut().enumerate() {
-                let mut z = self.bd[i] * p.acc;
+                let mut z = self.bd[i] * acc;
                 for (a, x) in self.ad[i].iter().zip(r.iter()) {
                     z += a * x;
                 }
