@@ -289,20 +289,6 @@ mod tests {
     /// [`PlantPoint::strain_per_acc`] against the beam's statics, with two to four modes, at
     /// the shipped table's payloads.
     #[test]
-    fn zz_print() {
-        for payload in [0.0, 0.025, 0.05] {
-            let exact = exact_strain_per_acc(model::<2>(payload).beam.params());
-            let f = [
-                PlantPoint::of(&model::<2>(payload)).strain_per_acc,
-                PlantPoint::of(&model::<3>(payload)).strain_per_acc,
-                PlantPoint::of(&model::<4>(payload)).strain_per_acc,
-            ]
-            .map(|s| (s as f64).abs() / exact);
-            eprintln!("{payload}: {f:?}");
-        }
-    }
-
-    #[test]
     fn the_static_strain_per_acceleration_is_the_root_moments() {
         for payload in [0.0, 0.025, 0.05] {
             let exact = exact_strain_per_acc(model::<2>(payload).beam.params());

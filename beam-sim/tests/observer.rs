@@ -592,8 +592,8 @@ fn the_drive_identifies_the_beams_stiffness_at_the_start_of_a_move() {
 }
 
 /// A move that starts too gently to bend the beam much (90 deg over 2 s: its first 0.1 s
-/// give the fit 1e-8 of summed squared sensitivity, against 4e-6 and more for the planner's
-/// shortest moves) is not fitted (`MIN_FIT_SENSITIVITY`): the drive runs it on the model, on
+/// give the fit 1e-8 of summed squared sensitivity, against 3e-7 and more for the planner's
+/// shortest moves from 5 deg) is not fitted (`MIN_FIT_SENSITIVITY`): the drive runs it on the model, on
 /// a beam 20 % softer too. Fitted, such moves read the model's own beam 3-9 % off.
 #[test]
 fn a_move_too_gentle_to_fit_runs_on_the_model() {

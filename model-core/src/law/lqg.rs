@@ -265,9 +265,9 @@ pub const IDENTIFY_TICKS: u32 = 100;
 /// settle band's beam still ringing. The planner's shortest moves of 5 deg and more sum
 /// more than 3e-7 (4e-6 to 2e-5 from 15 deg on the model's beam, 3e-7 to 1e-6 at 15 deg
 /// with 50 g on a beam a third stiffer, which, run on the model, rang at 5 N m in the
-/// hold); a 20 rad move, or 90 deg over 2 s, start too gently
-/// (1e-8 to 5e-8), and their fits read the model's own beam 3-9 % off, a 20 rad move after
-/// a brake 30 % (which the loop did not survive at 20 rad/s).
+/// hold); a 20 rad move, or 90 deg over 2 s, start too gently (1e-8 to 5e-8), and their
+/// fits read the model's own beam 3-9 % off, a 20 rad move after a brake 30 % (which the
+/// loop did not survive at 20 rad/s).
 #[cfg(feature = "identify")]
 pub const MIN_FIT_SENSITIVITY: f32 = 1e-7;
 
@@ -437,11 +437,11 @@ macro_rules! unrolled {
 /// `init + a[0] x[0] + a[1] x[1] + ...`, written out and summed left to right, as the
 /// loops it replaces summed: the drive and the host round alike, and at the drive's
 /// `opt-level = "z"` a loop or an iterator chain is not unrolled (measured: the observer's
-/// iterator loops cost three times their multiply-adds).
+/// iterator loops cost three times their multiply-adds). A plain dot product starts from
+/// -0.0, not 0.0: `-0.0 + y` is `y` for every `y`, so the compiler drops the add, where
+/// `0.0 + y` (which turns -0.0 into 0.0) is an add (seven of them in the observer laws'
+/// tick).
 #[cfg(feature = "observer")]
-// `init + a . x`, the products added in order. A plain dot product starts from -0.0, not 0.0:
-// `-0.0 + y` is `y` for every `y`, so the compiler drops the add, where `0.0 + y` (which turns
-// -0.0 into 0.0) is an add (seven of them in the observer laws' tick).
 macro_rules! dot {
     ($name:ident, $n:literal, $($i:literal)*) => {
         #[inline(always)]
