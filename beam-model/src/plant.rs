@@ -106,7 +106,7 @@ impl PlantPoint {
 /// `e' Kqq^-1 v`: the root strain of the beam bent statically by the modal load `v` per unit
 /// hub acceleration (`h` for the beam's own inertia, `(r + L) u` for a tip mass). 0 for a
 /// stiffness that is not positive definite (which no model that builds has).
-fn static_strain<const N: usize>(model: &ModalModel<N>, v: &[f64; N]) -> f64 {
+pub(crate) fn static_strain<const N: usize>(model: &ModalModel<N>, v: &[f64; N]) -> f64 {
     linalg::cholesky(&model.kqq).map_or(0.0, |l| {
         linalg::dot(&model.root_strain_coef, &linalg::chol_solve(&l, v))
     })
