@@ -20,16 +20,19 @@ use beam_drive::amplifier::Amplifier;
 use beam_drive::config::{BuildError, MOVE_KNOTS};
 use beam_drive::drive::{Drive, QuadratureCounter};
 use beam_drive::operator::Operator;
+use embedded_hal::pwm::SetDutyCycle;
 use embedded_hal_bus::spi::ExclusiveDevice;
 use stm32f4xx_hal::{
+    gpio::Alternate,
     gpio::{Input, Output, Pin, PinState, PushPull},
     pac,
     prelude::*,
     qei::Qei,
     rcc::Config,
+    rcc::{BusTimerClock, Rcc},
     serial::{self, Rx1, Tx1},
     spi::{self, Spi},
-    timer::{CounterHz, Event, PwmChannel, SysDelay},
+    timer::{CounterHz, Event, SysDelay, Timer},
     watchdog::IndependentWatchdog,
 };
 
@@ -62,8 +65,8 @@ impl QuadratureCounter for Encoder {
 pub type AdcBus = ExclusiveDevice<Spi<pac::SPI1>, Pin<'A', 4, Output<PushPull>>, SysDelay>;
 /// The bridge ADC's data-ready line.
 pub type AdcReady = Pin<'A', 3, Input>;
-/// The amplifier's PWM input.
-pub type TorquePwm = PwmChannel<pac::TIM1, 0>;
+/// The amplifier's PWM input: TIM1's channel 1 on PA8 ([`TorquePwm::new`]).
+pub type PwmPin = Pin<'A', 8, Alternate<1>>;
 /// The amplifier's direction input.
 pub type Direction = Pin<'B', 12, Output<PushPull>>;
 /// The amplifier's enable input.
@@ -140,9 +143,7 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
     // The amplifier first, so that it is held disabled before anything else runs.
     let enable: Enable = gpiob.pb13.into_push_pull_output_in_state(PinState::Low);
     let direction: Direction = gpiob.pb12.into_push_pull_output();
-    let (_, (pwm, ..)) = dp.TIM1.pwm_hz(PWM_HZ.Hz(), &mut rcc);
-    let mut pwm: TorquePwm = pwm.with(gpioa.pa8);
-    pwm.enable();
+    let pwm = TorquePwm::new(dp.TIM1, gpioa.pa8.into_alternate(), &mut rcc);
     let fault: AmpFault = gpiob.pb14.into_pull_up_input();
     let amp = Amplifier::new(pwm, direction, enable, fault, firmware::TORQUE_SCALE)
         .map_err(|_| BringUpError::Amplifier)?;
@@ -235,6 +236,62 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
         commander,
         crystal,
     })
+}
+
+/// The amplifier's PWM input: TIM1's channel 1 on PA8, edge-aligned at [`PWM_HZ`], the duty
+/// in counts of the period (embedded-hal's [`SetDutyCycle`]).
+///
+/// Written over the registers rather than taken from the HAL's `pwm_hz`, which sets the
+/// same registers but unwraps the `Result` of its auto-reload write: that one unwrap linked
+/// `core::fmt`'s string and `Debug` formatting into the board, some 0.8 KB of flash for a
+/// message no one reads (the panic handler prints the location only).
+pub struct TorquePwm {
+    tim: pac::TIM1,
+    _pin: PwmPin,
+}
+
+impl TorquePwm {
+    /// TIM1 clocked and reset, counting at [`PWM_HZ`] from the bus clock `rcc` set up, its
+    /// channel 1 in PWM mode 1 with the duty zero, the output enabled (the main output at
+    /// the first update, as the HAL's `pwm_hz` leaves it).
+    pub fn new(tim: pac::TIM1, pin: PwmPin, rcc: &mut Rcc) -> Self {
+        // Clock on and reset, as the HAL's timers do.
+        let tim = Timer::new(tim, rcc).release();
+        // The prescaler and period for the rate, as the HAL computes them: on the board's
+        // 168 MHz the prescaler is 0 and the period `PWM_PERIOD_COUNTS`.
+        let ticks = (pac::TIM1::timer_clock(&rcc.clocks).raw() / PWM_HZ).max(2);
+        let psc = (ticks - 1) / (1 << 16);
+        let arr = (ticks / (psc + 1) - 1).clamp(1, u16::MAX as u32) as u16;
+        tim.cr1().modify(|_, w| w.arpe().set_bit());
+        tim.psc().write(|w| w.psc().set(psc as u16));
+        tim.arr().write(|w| w.arr().set(arr));
+        tim.ccr1().write(|w| w.ccr().set(0));
+        tim.ccmr1_output()
+            .modify(|_, w| w.oc1pe().set_bit().oc1m().pwm_mode1());
+        // Load the prescaler and the period now, without an update interrupt.
+        tim.cr1().modify(|_, w| w.urs().set_bit());
+        tim.egr().write(|w| w.ug().set_bit());
+        tim.cr1().modify(|_, w| w.urs().clear_bit());
+        tim.ccer().modify(|_, w| w.cc1e().set_bit());
+        tim.bdtr().modify(|_, w| w.aoe().set_bit());
+        tim.cr1().modify(|_, w| w.cen().set_bit());
+        Self { tim, _pin: pin }
+    }
+}
+
+impl embedded_hal::pwm::ErrorType for TorquePwm {
+    type Error = core::convert::Infallible;
+}
+
+impl SetDutyCycle for TorquePwm {
+    fn max_duty_cycle(&self) -> u16 {
+        (self.tim.arr().read().arr().bits()).wrapping_add(1)
+    }
+
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Self::Error> {
+        self.tim.ccr1().write(|w| w.ccr().set(duty));
+        Ok(())
+    }
 }
 
 /// Turns the crystal oscillator on and waits for it a bounded time ([`HSE_READY_POLLS`]);
