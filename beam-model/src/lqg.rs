@@ -152,6 +152,15 @@ pub struct LqgDesign {
     pub k_filter: f32,
     /// What the moving regulator adds to [`LqgDesign::k_filter`], as `k_move` to `k`.
     pub k_move_filter: f32,
+    /// How the moving regulator's share changes with the beam's compliance against the
+    /// model's, less 1, as the drive identifies it ([`LqgWeights::identify`]): the loop's
+    /// gain while moving is `k + w (k_move + c k_move_compliance)`. The secant of the
+    /// moving regulator designed on the model with its modes' stiffness scaled to each end
+    /// of [`IDENTIFY_STIFFNESS`]. Zero without the identifier or a moving regulator.
+    pub k_move_compliance: [f32; MAX_STATES],
+    /// What the compliance adds to [`LqgDesign::k_move_filter`], as
+    /// `k_move_compliance` to `k_move`.
+    pub k_move_filter_compliance: f32,
     /// The encoder's count interval about a reading, rad, `[min(step, 0), max(step, 0)]`: at
     /// rest the observer corrects its angle only by how far its prediction lies outside
     /// `[theta + lo, theta + hi]` ([`LqgWeights::count_interval`]); `[0, 0]` reads the angle as
@@ -221,6 +230,8 @@ impl LqgDesign {
         k_move: [0.0; MAX_STATES],
         k_filter: 0.0,
         k_move_filter: 0.0,
+        k_move_compliance: [0.0; MAX_STATES],
+        k_move_filter_compliance: 0.0,
         count_interval: [0.0; 2],
         ki: 0.0,
         ref_ad: [[0.0; 2 * DESIGN_MODES]; 2 * DESIGN_MODES],
@@ -266,6 +277,8 @@ impl LqgDesign {
             k_move: each(&a.k_move, &b.k_move, m),
             k_filter: m(a.k_filter, b.k_filter),
             k_move_filter: m(a.k_move_filter, b.k_move_filter),
+            k_move_compliance: each(&a.k_move_compliance, &b.k_move_compliance, m),
+            k_move_filter_compliance: m(a.k_move_filter_compliance, b.k_move_filter_compliance),
             count_interval: each(&a.count_interval, &b.count_interval, m),
             ki: m(a.ki, b.ki),
             ref_ad: rows(&a.ref_ad, &b.ref_ad, m),
@@ -435,6 +448,27 @@ pub fn leading_modes<const N: usize, const M: usize>(
     })
 }
 
+/// The stiffness, against the model's, that the drive's identifier may find (model-core's
+/// `IDENTIFY_RANGE`: EI and density each within 20 % of the model's, so their ratio within
+/// 2/3 to 3/2): the moving regulator is designed at both ends for its slope in the
+/// compliance ([`LqgDesign::k_move_compliance`]).
+pub const IDENTIFY_STIFFNESS: [f64; 2] = [2.0 / 3.0, 1.5];
+
+/// `model` with its modes' stiffness scaled by `stiffness`, as the identifier reads a beam
+/// (EI against the density): `Kqq` by the factor, and the modes' damping, which the model
+/// makes in proportion to their frequencies, by its square root.
+fn stiffened<const N: usize>(model: &ModalModel<N>, stiffness: f64) -> ModalModel<N> {
+    let root = libm::sqrt(stiffness);
+    let scale = |m: &crate::linalg::Mat<N>, f: f64| m.map(|row| row.map(|x| x * f));
+    ModalModel {
+        kqq: scale(&model.kqq, stiffness),
+        cq: scale(&model.cq, root),
+        clamped_hz: model.clamped_hz.map(|x| x * root),
+        pinned_hz: model.pinned_hz.map(|x| x * root),
+        ..*model
+    }
+}
+
 /// Designs the observer and the state feedback for `model` sampled at `ts_s`: the continuous
 /// model sampled, the regulator (`regulator`), the Kalman filter (`kalman`), both in the
 /// drive's fixed layout, then the reference beam and the feedforward (`reference_beam`).
@@ -475,6 +509,27 @@ pub fn design<const N: usize>(
     } else {
         None
     };
+    // The moving regulator's share on the beam at each end of the stiffness the identifier
+    // may find, and its secant in the compliance.
+    let kmove_compliance = if rate > 0.0 && weights.identify {
+        let share = |stiffness: f64| -> Result<([f64; D], f64), LqgError> {
+            let m = stiffened(model, stiffness);
+            let (ad, bd) = sampled_with(&m, &minv, ts_s).ok_or(LqgError::Numerics)?;
+            let rest = regulator(&m, &ad, &bd, &rest, ts_s, 0.0)?;
+            let moving = regulator(&m, &ad, &bd, weights, ts_s, rate)?;
+            Ok((
+                core::array::from_fn(|i| moving[i] - rest[i]),
+                1.0 / stiffness - 1.0,
+            ))
+        };
+        let [soft, stiff] = IDENTIFY_STIFFNESS;
+        let ((a, ca), (b, cb)) = (share(soft)?, share(stiff)?);
+        Some(core::array::from_fn::<f64, D, _>(|i| {
+            (a[i] - b[i]) / (ca - cb)
+        }))
+    } else {
+        None
+    };
     let (pct, sinv) = kalman(model, &ad, &bd, weights, noise)?;
     let e = &model.root_strain_coef;
 
@@ -482,6 +537,7 @@ pub fn design<const N: usize>(
         ki: kfull[nx] as f32,
         k_filter: kfull[nx + 1] as f32,
         k_move_filter: kmove.map_or(0.0, |k| (k[nx + 1] - kfull[nx + 1]) as f32),
+        k_move_filter_compliance: kmove_compliance.map_or(0.0, |k| k[nx + 1] as f32),
         jeff: model.jeff as f32,
         mtt: model.mtt as f32,
         viscous: model.beam.params().viscous_nms as f32,
@@ -504,6 +560,9 @@ pub fn design<const N: usize>(
         out.k[at(i)] = kfull[i] as f32;
         if let Some(kmove) = kmove {
             out.k_move[at(i)] = (kmove[i] - kfull[i]) as f32;
+        }
+        if let Some(kc) = kmove_compliance {
+            out.k_move_compliance[at(i)] = kc[i] as f32;
         }
         for r in 0..2 {
             out.l[at(i)][r] = (pct[i][0] * sinv[0][r] + pct[i][1] * sinv[1][r]) as f32;

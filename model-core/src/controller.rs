@@ -538,7 +538,7 @@ impl<const K: usize> Controller<K> {
         // The law starts the move from a clear state. Cleared here rather than when
         // the next tick takes the start: no tick runs the law in between, and that
         // first tick is the observer laws' worst.
-        st.law_state.restart();
+        st.law_state.restart(&self.cfg.law);
         st.start_pending = true;
         st.brake_pending = brake;
     }

@@ -456,8 +456,14 @@ impl LawState {
     /// ([`crate::Controller::start_move`]), on the command path: the move's first tick, the
     /// observer laws' worst, then has only the observer's angle to set.
     #[inline]
-    pub fn restart(&mut self) {
+    pub fn restart(&mut self, law: &ControlLaw) {
         *self = LawState::default();
+        #[cfg(feature = "identify")]
+        {
+            self.lqg.adaptation = lqg::Adaptation::start(&law.observer);
+        }
+        #[cfg(not(feature = "identify"))]
+        let _ = law;
     }
 }
 

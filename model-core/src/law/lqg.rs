@@ -202,6 +202,27 @@ pub struct Adaptation {
     /// reference bends the beam by `1 + compliance` times the reference beam (below
     /// [`COMPLIANCE_FADE_STRAIN`]).
     pub compliance: f32,
+    /// The moving regulator's share the feedback carries this move: the design's
+    /// [`LqgDesign::k_move`] from the move's start (set when it is armed,
+    /// [`Adaptation::start`]), then, once the identifier has finished, that share on the
+    /// compliance found, `k_move + compliance k_move_compliance`, for a law whose
+    /// reference bends by it.
+    pub k_move: [f32; MAX_STATES],
+    /// [`LqgDesign::k_move_filter`] likewise.
+    pub k_move_filter: f32,
+}
+
+#[cfg(feature = "identify")]
+impl Adaptation {
+    /// Nothing identified yet, the moving regulator the design's: the state a move starts
+    /// from. Set when the move is armed, off the tick (`crate::law::LawState::restart`).
+    pub fn start(d: &LqgDesign) -> Self {
+        Self {
+            k_move: d.k_move,
+            k_move_filter: d.k_move_filter,
+            ..Self::default()
+        }
+    }
 }
 
 /// The identifier's state ([`LqgDesign::id_a`]): the clamped modes `z = q + G theta`
@@ -275,7 +296,10 @@ pub const MIN_FIT_SENSITIVITY: f32 = 1e-7;
 /// drive is designed for (EI and density each within 20 %, so their ratio within 2/3 to 3/2).
 /// A fit outside it (a gauge reading wrong) is held to it.
 #[cfg(feature = "identify")]
-pub const IDENTIFY_RANGE: [f32; 2] = [2.0 / 3.0, 1.5];
+pub const IDENTIFY_RANGE: [f32; 2] = [
+    beam_model::lqg::IDENTIFY_STIFFNESS[0] as f32,
+    beam_model::lqg::IDENTIFY_STIFFNESS[1] as f32,
+];
 
 /// A stiffness found within this of the model's is taken for the model's: the fit's own
 /// error. On the model's beam it finds 0.991-1.003, and 1-3 % high on beams 20 % off it
@@ -589,13 +613,33 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     // beam as the reference beam is.
     let reference = [pos, tq[0], tq[1], vel, tdq[0], tdq[1]];
     let w = state.move_weight;
+    // The moving regulator's share: the design's, or with the identifier the one this
+    // move's beam has been found to need (`Adaptation::k_move`).
+    #[cfg(feature = "identify")]
+    macro_rules! moving {
+        ($i:tt) => {
+            state.adaptation.k_move[$i]
+        };
+        () => {
+            state.adaptation.k_move_filter
+        };
+    }
+    #[cfg(not(feature = "identify"))]
+    macro_rules! moving {
+        ($i:tt) => {
+            d.k_move[$i]
+        };
+        () => {
+            d.k_move_filter
+        };
+    }
     // The filtered feedback the plant is driven by this tick starts from last tick's: the
     // regulator is designed with it as a state.
-    let mut sigma = (d.k_filter + w * d.k_move_filter) * state.feedback_nm;
+    let mut sigma = (d.k_filter + w * moving!()) * state.feedback_nm;
     macro_rules! update {
         ($i:ident, $pred:expr) => {{
             let xi = $pred + d.l[$i][0] * innov_theta + d.l[$i][1] * innov_strain;
-            sigma += (d.k[$i] + w * d.k_move[$i]) * (xi - reference[$i]);
+            sigma += (d.k[$i] + w * moving!($i)) * (xi - reference[$i]);
             state.estimate[$i] = xi;
         }};
     }
@@ -666,6 +710,9 @@ fn adapt<const IDENTIFY: bool, const BEND: bool>(
     }
     let a = &mut state.adaptation;
     let id = &mut a.identifier;
+    // The identifier finished before this tick (the ticks that run it, the first of a
+    // move's and the fit's among them, are the observer laws' most costly).
+    let finished = id.ticks >= IDENTIFY_TICKS;
     if let Some([stiffness, compliance]) = identify(d, x, id, omitted) {
         id.stiffness = stiffness;
         id.compliance = compliance;
@@ -674,6 +721,14 @@ fn adapt<const IDENTIFY: bool, const BEND: bool>(
     // Only a law whose reference bends by it (`observe`'s `BEND`) reads the compliance.
     if BEND {
         a.compliance += COMPLIANCE_BLEND_PER_TICK * (id.compliance - a.compliance);
+        // The moving regulator follows the compliance.
+        if finished {
+            let c = a.compliance;
+            unrolled!(i in [0 1 2 3 4 5] => {
+                a.k_move[i] = d.k_move[i] + c * d.k_move_compliance[i];
+            });
+            a.k_move_filter = d.k_move_filter + c * d.k_move_filter_compliance;
+        }
     }
 }
 
