@@ -379,7 +379,9 @@ pub struct Known {
     /// The observer's Kalman gain.
     pub kalman: bool,
     /// The feedback: the observer laws' regulators and integral gain, and the plant's numbers
-    /// every law scales its gains by (`LawPlant::point`).
+    /// every law scales its gains by (`LawPlant::point`). The moving regulator then does not
+    /// follow the stiffness the identifier finds (`LqgDesign::k_move_compliance`): it is the
+    /// beam's already.
     pub regulator: bool,
     /// The move: an observer law's reference beam and feedforward, and the planner's limits.
     /// A shaper's frequency is the caller's to move.
@@ -423,6 +425,11 @@ impl Known {
             d.k_move = beam.k_move;
             d.k_filter = beam.k_filter;
             d.k_move_filter = beam.k_move_filter;
+            // The moving regulator is the beam's already: nothing for the stiffness the
+            // identifier finds against the nominal observer to move it by (it would count
+            // the beam's difference twice).
+            d.k_move_compliance = [0.0; MAX_STATES];
+            d.k_move_filter_compliance = 0.0;
             d.ki = beam.ki;
             d.jeff = beam.jeff;
         }
