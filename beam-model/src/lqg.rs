@@ -515,10 +515,10 @@ pub fn design<const N: usize>(
         let share = |stiffness: f64| -> Result<([f64; D], f64), LqgError> {
             let m = stiffened(model, stiffness);
             let (ad, bd) = sampled_with(&m, &minv, ts_s).ok_or(LqgError::Numerics)?;
-            let rest = regulator(&m, &ad, &bd, &rest, ts_s, 0.0)?;
+            let at_rest = regulator(&m, &ad, &bd, &rest, ts_s, 0.0)?;
             let moving = regulator(&m, &ad, &bd, weights, ts_s, rate)?;
             Ok((
-                core::array::from_fn(|i| moving[i] - rest[i]),
+                core::array::from_fn(|i| moving[i] - at_rest[i]),
                 1.0 / stiffness - 1.0,
             ))
         };

@@ -627,23 +627,15 @@ fn the_moving_regulator_is_the_one_designed_on_the_beam_identified() {
         // The blend has converged by 0.3 s.
         assert!((1.0 + a.stiffness - found).abs() < 1e-3);
         let on_found = design_on(found as f64);
-        let gains = |d: &LqgDesign| -> [f32; MAX_STATES + 1] {
-            core::array::from_fn(|i| {
-                if i < MAX_STATES {
-                    d.k_move[i]
-                } else {
-                    d.k_move_filter
-                }
-            })
+        // The moving share and its filter gain, in one row.
+        let gains = |k: &[f32; MAX_STATES], filter: f32| -> [f32; MAX_STATES + 1] {
+            core::array::from_fn(|i| if i < MAX_STATES { k[i] } else { filter })
         };
-        let adapted: [f32; MAX_STATES + 1] = core::array::from_fn(|i| {
-            if i < MAX_STATES {
-                a.k_move[i]
-            } else {
-                a.k_move_filter
-            }
-        });
-        let (want, was) = (gains(&on_found), gains(&on_model));
+        let adapted = gains(&a.k_move, a.k_move_filter);
+        let (want, was) = (
+            gains(&on_found.k_move, on_found.k_move_filter),
+            gains(&on_model.k_move, on_model.k_move_filter),
+        );
         for i in 0..=MAX_STATES {
             assert!(
                 (adapted[i] - want[i]).abs() <= 0.2 * (was[i] - want[i]).abs() + 0.02 * want[i].abs(),

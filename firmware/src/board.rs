@@ -243,8 +243,8 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Result<Board, Br
 ///
 /// Written over the registers rather than taken from the HAL's `pwm_hz`, which sets the
 /// same registers but unwraps the `Result` of its auto-reload write: that one unwrap linked
-/// `core::fmt`'s string and `Debug` formatting into the board, some 0.8 KB of flash for a
-/// message no one reads (the panic handler prints the location only).
+/// `core::fmt`'s string and `Debug` formatting into the board, 976 B of flash for a message
+/// no one reads (the panic handler prints the location only).
 pub struct TorquePwm {
     tim: pac::TIM1,
     _pin: PwmPin,
