@@ -364,7 +364,7 @@ pub fn simulate_mismatched<const N: usize>(
     law: Law,
     opts: &SimOptions,
 ) -> Result<SimResult, SimError> {
-    simulate_knowing(plant, nominal, Known::NONE, law, opts)
+    simulate_knowing(plant, plant, nominal, Known::NONE, law, opts)
 }
 
 /// Which parts of the drive are built on the beam on the hub rather than on the drive's
@@ -472,10 +472,12 @@ impl<P: LawPlant> LawPlant for PartlyKnown<P> {
     }
 }
 
-/// [`simulate_mismatched`] with the parts of the drive in `known` built on `plant` itself
-/// rather than on `nominal`.
+/// [`simulate_mismatched`] on `plant` with the parts of the drive in `known` built on `beam`
+/// rather than on `nominal`: `plant` itself, or a beam with only some of its parameters (what
+/// identifying those alone could give).
 pub fn simulate_knowing<const N: usize>(
     plant: &ModalModel<N>,
+    beam: &ModalModel<N>,
     nominal: &ModalModel<N>,
     known: Known,
     law: Law,
@@ -486,11 +488,11 @@ pub fn simulate_knowing<const N: usize>(
         ..settings_for(nominal, &opts.sensors)
     };
     // The planner's limits for this law (a floor on the move's time for the lqg law).
-    let limits = Limits::for_law(if known.reference { plant } else { nominal }, &law);
+    let limits = Limits::for_law(if known.reference { beam } else { nominal }, &law);
     // Designed on the instruments the loop reads (an observer law's noise is theirs).
     let instruments = opts.sensors.instruments();
     let on = PartlyKnown {
-        beam: instruments.on(plant),
+        beam: instruments.on(beam),
         nominal: instruments.on(nominal),
         known,
     };
@@ -503,7 +505,7 @@ pub fn simulate_knowing<const N: usize>(
     let limits = if opts.motion.exact {
         limits.with_reference_beam(
             &law,
-            if known.reference { plant } else { nominal },
+            if known.reference { beam } else { nominal },
             settings.ts_s,
         )
     } else {

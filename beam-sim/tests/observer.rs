@@ -451,7 +451,7 @@ fn a_drive_that_knows_every_part_of_the_beam_is_the_drive_built_on_it() {
         };
         let law = common::shipped().law(kind, 0.0).unwrap();
         let torques = |r: SimResult| -> Vec<f64> { r.samples.iter().map(|s| s.torque).collect() };
-        let knowing = |known| torques(simulate_knowing(&p, &n, known, law, &opts).unwrap());
+        let knowing = |known| torques(simulate_knowing(&p, &p, &n, known, law, &opts).unwrap());
         let built_on_beam = torques(simulate_mismatched(&p, &p, law, &opts).unwrap());
         let built_on_nominal = torques(simulate_mismatched(&p, &n, law, &opts).unwrap());
         assert_ne!(built_on_beam, built_on_nominal);

@@ -56,6 +56,71 @@ pub struct SweepSpec {
     /// known, the shapers' frequencies are scaled by the drawn beam's first hub-free
     /// frequency against the nominal's: what identifying the beam could at most give.
     pub drive_knows: Known,
+    /// Which of the drawn beam's parameters the beam those parts are built on carries (the
+    /// rest the nominal beam's): what identifying only those could give.
+    pub known_params: KnownParams,
+}
+
+/// Which of a drawn beam's parameters a drive that knows the beam ([`SweepSpec::drive_knows`])
+/// is built with; the others are the nominal beam's, at the drawn payload (which the gain
+/// table's rows already know).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KnownParams {
+    /// The beam's stiffness against its mass, `EI / rho`, as drawn, with the nominal density
+    /// (EI scaled by the ratio): its frequencies with the hub clamped, what the observer
+    /// laws' identifier finds. Taken over by `ei` and `density` where either is known.
+    pub stiffness: bool,
+    /// EI as drawn.
+    pub ei: bool,
+    /// The density as drawn.
+    pub density: bool,
+    /// The hub's inertia Jm as drawn.
+    pub hub: bool,
+    /// The beam's damping ratio as drawn.
+    pub damping: bool,
+    /// Viscous and Coulomb friction as drawn.
+    pub friction: bool,
+}
+
+impl KnownParams {
+    /// Every parameter as drawn: the drive built on the drawn beam itself.
+    pub const ALL: Self = Self {
+        stiffness: true,
+        ei: true,
+        density: true,
+        hub: true,
+        damping: true,
+        friction: true,
+    };
+
+    /// The beam a drive built with these parameters of `drawn` (a case of `nominal`)
+    /// knows.
+    pub fn apply(&self, p: &Perturbation, nominal: &BeamParams) -> BeamParams {
+        let drawn = p.apply(nominal);
+        let at_payload = BeamParams {
+            tip_mass_kg: p.payload_kg,
+            ..*nominal
+        };
+        let pick = |known: bool, drawn: f64, nominal: f64| if known { drawn } else { nominal };
+        let ei_nm2 = if self.ei || self.density {
+            pick(self.ei, drawn.ei_nm2, nominal.ei_nm2)
+        } else {
+            pick(
+                self.stiffness,
+                nominal.ei_nm2 * p.ei / p.rho,
+                nominal.ei_nm2,
+            )
+        };
+        BeamParams {
+            ei_nm2,
+            density_kg_m3: pick(self.density, drawn.density_kg_m3, nominal.density_kg_m3),
+            jm_kgm2: pick(self.hub, drawn.jm_kgm2, nominal.jm_kgm2),
+            damping_ratio: pick(self.damping, drawn.damping_ratio, nominal.damping_ratio),
+            viscous_nms: pick(self.friction, drawn.viscous_nms, nominal.viscous_nms),
+            coulomb_nm: pick(self.friction, drawn.coulomb_nm, nominal.coulomb_nm),
+            ..at_payload
+        }
+    }
 }
 
 /// The simulated time a sweep runs by default, s: settle times of several seconds are common
@@ -199,13 +264,15 @@ pub struct Case {
 /// A law with its shaper, as scheduled for a payload.
 pub type Tuned = (Law, Shaper);
 
-/// One case's beams: the plant as drawn, and the nominal model at the drawn payload, which
-/// the drive is built on.
+/// One case's beams: the plant as drawn, the nominal model at the drawn payload, which the
+/// drive is built on, and the beam its known parts are built on
+/// ([`SweepSpec::known_params`]).
 struct CaseBeams<const N: usize> {
     index: usize,
     perturbation: Perturbation,
     plant: ModalModel<N>,
     nominal: ModalModel<N>,
+    known: ModalModel<N>,
     /// The factor on the shapers' frequencies: 1, or the drawn beam's first hub-free
     /// frequency against the nominal beam's at the payload, if the drive knows the reference
     /// ([`SweepSpec::drive_knows`]).
@@ -223,8 +290,13 @@ impl<const N: usize> CaseBeams<N> {
             tip_mass_kg: p.payload_kg,
             ..*nominal
         })?;
+        let known = if spec.known_params == KnownParams::ALL || spec.drive_knows == Known::NONE {
+            plant
+        } else {
+            build(spec.known_params.apply(&p, nominal))?
+        };
         let shaper_scale = if spec.drive_knows.reference {
-            (plant.pinned_hz[0] / at_payload.pinned_hz[0]) as f32
+            (known.pinned_hz[0] / at_payload.pinned_hz[0]) as f32
         } else {
             1.0
         };
@@ -233,6 +305,7 @@ impl<const N: usize> CaseBeams<N> {
             perturbation: p,
             plant,
             nominal: at_payload,
+            known,
             shaper_scale,
         })
     }
@@ -253,7 +326,14 @@ impl<const N: usize> CaseBeams<N> {
             true_state: spec.true_state,
             ..Default::default()
         };
-        simulate_knowing(&self.plant, &self.nominal, spec.drive_knows, law, &opts)
+        simulate_knowing(
+            &self.plant,
+            &self.known,
+            &self.nominal,
+            spec.drive_knows,
+            law,
+            &opts,
+        )
     }
 }
 
@@ -434,6 +514,68 @@ mod tests {
             instruments: Instruments::DEFAULT,
             true_state: false,
             drive_knows: Known::NONE,
+            known_params: KnownParams::ALL,
+        }
+    }
+
+    /// A drive that knows only some of the drawn beam's parameters is built on a beam with
+    /// those and the nominal rest: knowing the stiffness against the mass gives the drawn
+    /// beam's clamped frequencies (a cantilever's go as `sqrt(EI / rho)`) on the nominal
+    /// mass; knowing only the damping, the nominal frequencies.
+    #[test]
+    fn a_drive_that_knows_some_parameters_is_built_on_those_alone() {
+        let nominal = BeamParams::aluminium();
+        let with = |known_params| SweepSpec {
+            cases: 6,
+            seed: 11,
+            payload_max_kg: 0.0,
+            drive_knows: Known {
+                observer: true,
+                ..Known::NONE
+            },
+            known_params,
+            ..spec()
+        };
+        let only = |f: fn(&mut KnownParams)| {
+            let mut k = KnownParams {
+                stiffness: false,
+                ei: false,
+                density: false,
+                hub: false,
+                damping: false,
+                friction: false,
+            };
+            f(&mut k);
+            k
+        };
+        for i in 0..6 {
+            let all = CaseBeams::<3>::draw(&nominal, &with(KnownParams::ALL), i).unwrap();
+            assert_eq!(all.known, all.plant);
+            let stiff =
+                CaseBeams::<3>::draw(&nominal, &with(only(|k| k.stiffness = true)), i).unwrap();
+            let p = stiff.perturbation;
+            let ratio = (p.ei / p.rho).sqrt();
+            for m in 0..3 {
+                let (k, n) = (stiff.known.clamped_hz[m], stiff.nominal.clamped_hz[m]);
+                assert!(
+                    (k / n / ratio - 1.0).abs() < 1e-9,
+                    "case {i} mode {m}: {k} {n}"
+                );
+                let drawn = stiff.plant.clamped_hz[m];
+                assert!(
+                    (k / drawn - 1.0).abs() < 1e-9,
+                    "case {i} mode {m}: {k} {drawn}"
+                );
+            }
+            assert_eq!(stiff.known.mtt, stiff.nominal.mtt);
+            let damp =
+                CaseBeams::<3>::draw(&nominal, &with(only(|k| k.damping = true)), i).unwrap();
+            assert_eq!(damp.known.clamped_hz, damp.nominal.clamped_hz);
+            assert_eq!(
+                damp.known.beam.params().damping_ratio,
+                damp.plant.beam.params().damping_ratio
+            );
+            assert_ne!(damp.known.cq, damp.nominal.cq);
         }
     }
 

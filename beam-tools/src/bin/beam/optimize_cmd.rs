@@ -440,6 +440,7 @@ fn scenarios(
         instruments: instruments(a)?,
         true_state: false,
         drive_knows: beam_sim::sim::Known::NONE,
+        known_params: beam_tools::design::sweep::KnownParams::ALL,
     };
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(a.seed ^ 0x5CE7_A210);
     use rand::Rng;

@@ -5,7 +5,9 @@ use crate::{beam, damping_range, named, PlantArgs, SettleArgs};
 use anyhow::{bail, Context};
 use beam_sim::metrics::Metrics;
 use beam_sim::sim::Known;
-use beam_tools::design::sweep::{sweep, trace_case, Case, LawSummary, SweepSpec, SUMMARY};
+use beam_tools::design::sweep::{
+    sweep, trace_case, Case, KnownParams, LawSummary, SweepSpec, SUMMARY,
+};
 use beam_tools::io::plot::{histograms, HistogramPanel};
 use clap::{Args, ValueEnum};
 use model_core::{BeamParams, Law, LawKind, PdGains};
@@ -97,6 +99,13 @@ pub struct SweepArgs {
     /// shapers' frequencies). Comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "PART")]
     drive_knows: Vec<DrivePart>,
+    /// With --drive-knows-beam or --drive-knows: build those parts on a beam with only these
+    /// of the drawn beam's parameters, the rest nominal (default: all of them):
+    /// `stiffness` (EI / density as drawn, at the nominal density: what the observer laws'
+    /// identifier finds), `ei`, `density`, `hub` (Jm), `damping`, `friction` (viscous and
+    /// Coulomb). Comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "PARAM")]
+    drive_knows_params: Vec<BeamParam>,
     /// Write one row per case.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -162,6 +171,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         instruments: table.map_or(model_core::Instruments::DEFAULT, |t| t.drive.instruments),
         true_state: a.true_state,
         drive_knows: a.known(),
+        known_params: a.known_params(),
     };
     if let Some(index) = a.case {
         return run_case(a, &nominal, &spec, &law_at, index);
@@ -250,6 +260,9 @@ fn run_settle(o: &serde_json::Map<String, serde_json::Value>) -> String {
 fn check(a: &SweepArgs) -> anyhow::Result<()> {
     if a.plant.tip_mass.is_some() {
         bail!("--tip-mass does not apply to sweep: payloads are drawn up to --payload-max");
+    }
+    if !a.drive_knows_params.is_empty() && a.known() == Known::NONE {
+        bail!("--drive-knows-params says which parameters the parts in --drive-knows (or --drive-knows-beam) are built with: give one of those");
     }
     if !(a.spread.is_finite() && (0.0..0.9).contains(&a.spread)) {
         bail!("--spread {} must be in [0, 0.9)", a.spread);
@@ -415,6 +428,10 @@ fn print_json(
             "drive_knows",
             json!({"observer": known.observer, "kalman": known.kalman, "regulator": known.regulator, "reference": known.reference}),
         );
+        if !a.drive_knows_params.is_empty() {
+            let params: Vec<_> = a.drive_knows_params.iter().map(|p| p.name()).collect();
+            put("drive_knows_params", json!(params));
+        }
     }
     if !a.moves.is_empty() {
         put("moves_deg", json!(a.moves));
@@ -445,12 +462,21 @@ fn print_text(
         a.spread * 100.0,
         a.payload_max
     );
+    let beam = if a.drive_knows_params.is_empty() {
+        "its drawn beam".to_string()
+    } else {
+        let params: Vec<_> = a.drive_knows_params.iter().map(|p| p.name()).collect();
+        format!(
+            "a beam with the drawn {} and the rest nominal (--drive-knows-params)",
+            params.join(", ")
+        )
+    };
     if a.drive_knows_beam {
-        println!("  each drive built on its drawn beam (--drive-knows-beam)");
+        println!("  each drive built on {beam} (--drive-knows-beam)");
     } else if !a.drive_knows.is_empty() {
         let parts: Vec<_> = a.drive_knows.iter().map(|p| p.name()).collect();
         println!(
-            "  each drive's {} built on its drawn beam, the rest on the nominal (--drive-knows)",
+            "  each drive's {} built on {beam}, the rest on the nominal (--drive-knows)",
             parts.join(", ")
         );
     }
@@ -572,7 +598,47 @@ impl DrivePart {
     }
 }
 
+/// A parameter of the drawn beam a drive can be built with (`--drive-knows-params`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum BeamParam {
+    Stiffness,
+    Ei,
+    Density,
+    Hub,
+    Damping,
+    Friction,
+}
+
+impl BeamParam {
+    fn name(self) -> &'static str {
+        match self {
+            BeamParam::Stiffness => "stiffness",
+            BeamParam::Ei => "ei",
+            BeamParam::Density => "density",
+            BeamParam::Hub => "hub",
+            BeamParam::Damping => "damping",
+            BeamParam::Friction => "friction",
+        }
+    }
+}
+
 impl SweepArgs {
+    /// The drawn beam's parameters the known parts are built with (all by default).
+    fn known_params(&self) -> KnownParams {
+        if self.drive_knows_params.is_empty() {
+            return KnownParams::ALL;
+        }
+        let has = |p| self.drive_knows_params.contains(&p);
+        KnownParams {
+            stiffness: has(BeamParam::Stiffness),
+            ei: has(BeamParam::Ei),
+            density: has(BeamParam::Density),
+            hub: has(BeamParam::Hub),
+            damping: has(BeamParam::Damping),
+            friction: has(BeamParam::Friction),
+        }
+    }
+
     /// The parts of the drive built on the drawn beam.
     fn known(&self) -> Known {
         if self.drive_knows_beam {
