@@ -650,6 +650,25 @@ pub(crate) mod tests {
         assert!((step - MOVE_FADE_PER_TICK as f64).abs() < 1e-7, "{step}");
     }
 
+    /// The identifier's bias correction, `k - b (k - 1)^2`, peaks where the step is held at
+    /// its stiffest, and is the range's top there: it rises with every step the identifier
+    /// takes, and never leaves the range.
+    #[cfg(feature = "identify")]
+    #[test]
+    fn the_identifiers_correction_rises_to_the_ranges_top_where_the_step_is_held() {
+        use lqg::{IDENTIFY_STEP_BIAS as B, IDENTIFY_STEP_MAX as MAX};
+        let corrected = |k: f32| k - B * (k - 1.0) * (k - 1.0);
+        assert_eq!(1.0 - 2.0 * B * (MAX - 1.0), 0.0, "the slope at the top");
+        assert_eq!(corrected(MAX), IDENTIFY_RANGE[1]);
+        let mut last = f32::NEG_INFINITY;
+        for i in 0..=1000 {
+            let k = IDENTIFY_RANGE[0] + (MAX - IDENTIFY_RANGE[0]) * i as f32 / 1000.0;
+            let c = corrected(k);
+            assert!(c >= last && c <= IDENTIFY_RANGE[1], "{k} -> {c}");
+            last = c;
+        }
+    }
+
     #[cfg(feature = "observer")]
     #[test]
     fn only_a_torque_swinging_to_a_limit_from_the_other_side_at_rest_counts_as_a_ring() {
