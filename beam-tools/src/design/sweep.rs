@@ -93,7 +93,7 @@ impl KnownParams {
         friction: true,
     };
 
-    /// The beam a drive built with these parameters of `drawn` (a case of `nominal`)
+    /// The beam a drive built with these parameters of case `p` (drawn about `nominal`)
     /// knows.
     pub fn apply(&self, p: &Perturbation, nominal: &BeamParams) -> BeamParams {
         let drawn = p.apply(nominal);
