@@ -429,8 +429,7 @@ fn print_json(
             json!({"observer": known.observer, "kalman": known.kalman, "regulator": known.regulator, "reference": known.reference}),
         );
         if !a.drive_knows_params.is_empty() {
-            let params: Vec<_> = a.drive_knows_params.iter().map(|p| p.name()).collect();
-            put("drive_knows_params", json!(params));
+            put("drive_knows_params", json!(spelled(&a.drive_knows_params)));
         }
     }
     if !a.moves.is_empty() {
@@ -465,19 +464,17 @@ fn print_text(
     let beam = if a.drive_knows_params.is_empty() {
         "its drawn beam".to_string()
     } else {
-        let params: Vec<_> = a.drive_knows_params.iter().map(|p| p.name()).collect();
         format!(
-            "a beam with the drawn {} and the rest nominal (--drive-knows-params)",
-            params.join(", ")
+            "a beam with only the drawn {} (--drive-knows-params)",
+            spelled(&a.drive_knows_params).join(", ")
         )
     };
     if a.drive_knows_beam {
         println!("  each drive built on {beam} (--drive-knows-beam)");
     } else if !a.drive_knows.is_empty() {
-        let parts: Vec<_> = a.drive_knows.iter().map(|p| p.name()).collect();
         println!(
             "  each drive's {} built on {beam}, the rest on the nominal (--drive-knows)",
-            parts.join(", ")
+            spelled(&a.drive_knows).join(", ")
         );
     }
     println!(
@@ -587,17 +584,6 @@ enum DrivePart {
     Reference,
 }
 
-impl DrivePart {
-    fn name(self) -> &'static str {
-        match self {
-            DrivePart::Observer => "observer",
-            DrivePart::Kalman => "kalman",
-            DrivePart::Regulator => "regulator",
-            DrivePart::Reference => "reference",
-        }
-    }
-}
-
 /// A parameter of the drawn beam a drive can be built with (`--drive-knows-params`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum BeamParam {
@@ -609,17 +595,13 @@ enum BeamParam {
     Friction,
 }
 
-impl BeamParam {
-    fn name(self) -> &'static str {
-        match self {
-            BeamParam::Stiffness => "stiffness",
-            BeamParam::Ei => "ei",
-            BeamParam::Density => "density",
-            BeamParam::Hub => "hub",
-            BeamParam::Damping => "damping",
-            BeamParam::Friction => "friction",
-        }
-    }
+/// The values as the command line spells them (`--drive-knows`, `--drive-knows-params`).
+fn spelled<T: ValueEnum>(values: &[T]) -> Vec<String> {
+    values
+        .iter()
+        .filter_map(|v| v.to_possible_value())
+        .map(|v| v.get_name().to_string())
+        .collect()
 }
 
 impl SweepArgs {
