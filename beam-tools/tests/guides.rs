@@ -175,8 +175,9 @@ fn every_cargo_beam_command_in_the_guides_runs_as_written() {
             .output()
             .expect("run beam")
     };
-    // The reader's own logs, as a rig would log them: a simulated PD move each, 1 s long
-    // (a longer log only makes the calibrations slower).
+    // The reader's own logs, as a rig would log them: a simulated PD move each, 0.4 s long
+    // in a 2 s log (simulate's default; the paper's method, the slowest command here at
+    // about 28 s, takes as long on a 1 s log).
     for (name, to) in [
         ("log.csv", "90"),
         ("a.csv", "90"),
