@@ -103,17 +103,31 @@ fn gauss_legendre<const P: usize>() -> ([f64; P], [f64; P]) {
 }
 
 /// `int_0^L f(x) dx` by composite Gauss-Legendre.
+#[cfg(test)]
 fn integrate<F: FnMut(f64) -> f64>(length_m: f64, mut f: F) -> f64 {
-    let (nodes, weights) = gauss_legendre::<GL_POINTS>();
-    let h = length_m / PANELS as f64;
     let mut sum = 0.0;
+    let panel = for_each_point(&gauss_legendre::<GL_POINTS>(), length_m, |w, x| {
+        sum += w * f(x)
+    });
+    panel * sum
+}
+
+/// Calls `f(w, x)` at each point `x` of the composite Gauss-Legendre rule `rule` (nodes and
+/// weights on [-1, 1]) over [0, L], in order, with its weight `w`; returns the factor that
+/// turns `sum(w f(x))` into the integral (half a panel's length).
+fn for_each_point<F: FnMut(f64, f64)>(
+    (nodes, weights): &([f64; GL_POINTS], [f64; GL_POINTS]),
+    length_m: f64,
+    mut f: F,
+) -> f64 {
+    let h = length_m / PANELS as f64;
     for p in 0..PANELS {
         let mid = (p as f64 + 0.5) * h;
-        for (z, w) in nodes.iter().zip(&weights) {
-            sum += w * f(mid + 0.5 * h * z);
+        for (z, w) in nodes.iter().zip(weights) {
+            f(*w, mid + 0.5 * h * z);
         }
     }
-    0.5 * h * sum
+    0.5 * h
 }
 
 /// The modal model with `N` flexible modes: matrices of docs/design.md, section 2 and derived data.
@@ -170,27 +184,44 @@ impl<const N: usize> ModalModel<N> {
 
         let mtt =
             p.jm_kgm2 + rho * (l * l * l / 3.0 + r * l * l + r * r * l) + mt * (r + l) * (r + l);
-        let h: [f64; N] = core::array::from_fn(|i| {
-            let si = shapes[i];
-            integrate(l, |x| rho * (r + x) * si.phi(x)) + mt * (r + l) * si.phi(l)
+        // Every integral below in one pass over the quadrature's points, each shape evaluated
+        // once a point (`integrate`, term for term and in its order: the same sums to the
+        // bit, for a quarter of the hyperbolic and trigonometric functions).
+        let rule = gauss_legendre::<GL_POINTS>();
+        let mut sum_h = [0.0; N];
+        let (mut sum_m, mut sum_k, mut sum_g) = (
+            linalg::zeros::<N>(),
+            linalg::zeros::<N>(),
+            linalg::zeros::<N>(),
+        );
+        let panel = for_each_point(&rule, l, |w, x| {
+            let phi: [f64; N] = core::array::from_fn(|i| shapes[i].phi(x));
+            let dphi: [f64; N] = core::array::from_fn(|i| shapes[i].dphi(x));
+            let ddphi: [f64; N] = core::array::from_fn(|i| shapes[i].ddphi(x));
+            // G_ij = int rho_bar (r+x) g_ij(x) dx with g_ij(x) = -1/2 int_0^x phi_i' phi_j'.
+            // Swapping the order of integration leaves one integral:
+            // G_ij = -1/2 int_0^L phi_i' phi_j' [rho (r (L-x) + (L^2-x^2)/2) + Mt (r+L)] dx.
+            let arm = rho * (r * (l - x) + 0.5 * (l * l - x * x)) + mt * (r + l);
+            for i in 0..N {
+                sum_h[i] += w * (rho * (r + x) * phi[i]);
+                for j in 0..=i {
+                    sum_m[i][j] += w * (rho * phi[i] * phi[j]);
+                    sum_k[i][j] += w * (ddphi[i] * ddphi[j]);
+                    sum_g[i][j] += w * (dphi[i] * dphi[j] * arm);
+                }
+            }
         });
+        let h: [f64; N] =
+            core::array::from_fn(|i| panel * sum_h[i] + mt * (r + l) * shapes[i].phi(l));
         let mut mqq = linalg::zeros::<N>();
         let mut kqq = linalg::zeros::<N>();
         let mut g = linalg::zeros::<N>();
         for i in 0..N {
             for j in 0..=i {
                 let (a, b) = (shapes[i], shapes[j]);
-                let m = integrate(l, |x| rho * a.phi(x) * b.phi(x)) + mt * a.phi(l) * b.phi(l);
-                let k = p.ei_nm2 * integrate(l, |x| a.ddphi(x) * b.ddphi(x));
-                // G_ij = int rho_bar (r+x) g_ij(x) dx with g_ij(x) = -1/2 int_0^x phi_i' phi_j'.
-                // Swapping the order of integration leaves one integral:
-                // G_ij = -1/2 int_0^L phi_i' phi_j' [rho (r (L-x) + (L^2-x^2)/2) + Mt (r+L)] dx.
-                let gij = -0.5
-                    * integrate(l, |x| {
-                        a.dphi(x)
-                            * b.dphi(x)
-                            * (rho * (r * (l - x) + 0.5 * (l * l - x * x)) + mt * (r + l))
-                    });
+                let m = panel * sum_m[i][j] + mt * a.phi(l) * b.phi(l);
+                let k = p.ei_nm2 * (panel * sum_k[i][j]);
+                let gij = -0.5 * (panel * sum_g[i][j]);
                 mqq[i][j] = m;
                 mqq[j][i] = m;
                 kqq[i][j] = k;
@@ -302,6 +333,67 @@ mod tests {
         let v = integrate(1.0, |x| x.powi(15));
         assert!(isclose(v, 1.0 / 16.0, 1e-14, 0.0));
         assert!(isclose(integrate(PI, libm::sin), 2.0, 1e-13, 0.0));
+    }
+
+    /// `M`, `K`, `G` and `h` as each integral alone gives them, by [`integrate`]: what the
+    /// model's one pass over the points must equal.
+    fn by_integral<const N: usize>(p: &BeamParams) -> (Mat<N>, Mat<N>, Mat<N>, [f64; N]) {
+        let (l, r, mt) = (p.length_m, p.hub_radius_m, p.tip_mass_kg);
+        let rho = p.rho_kg_m();
+        let shapes: [ModeShape; N] = core::array::from_fn(|i| ModeShape::new(i, l));
+        let h = core::array::from_fn(|i| {
+            let si = shapes[i];
+            integrate(l, |x| rho * (r + x) * si.phi(x)) + mt * (r + l) * si.phi(l)
+        });
+        let (mut m, mut k, mut g) = (linalg::zeros(), linalg::zeros(), linalg::zeros());
+        for i in 0..N {
+            for j in 0..N {
+                let (a, b) = (shapes[i], shapes[j]);
+                m[i][j] = integrate(l, |x| rho * a.phi(x) * b.phi(x)) + mt * a.phi(l) * b.phi(l);
+                k[i][j] = p.ei_nm2 * integrate(l, |x| a.ddphi(x) * b.ddphi(x));
+                g[i][j] = -0.5
+                    * integrate(l, |x| {
+                        a.dphi(x)
+                            * b.dphi(x)
+                            * (rho * (r * (l - x) + 0.5 * (l * l - x * x)) + mt * (r + l))
+                    });
+            }
+        }
+        (m, k, g, h)
+    }
+
+    fn assembled_as_each_integral<const N: usize>(p: BeamParams) {
+        let model = ModalModel::<N>::try_build(&Beam::try_build(p).unwrap()).unwrap();
+        let (m, k, g, h) = by_integral::<N>(&p);
+        // Bit for bit (the lower triangle is what the pass sums; the upper is its mirror).
+        for i in 0..N {
+            for j in 0..=i {
+                assert_eq!(model.mqq[i][j].to_bits(), m[i][j].to_bits(), "M {i}{j}");
+                assert_eq!(model.kqq[i][j].to_bits(), k[i][j].to_bits(), "K {i}{j}");
+                assert_eq!(model.g[i][j].to_bits(), g[i][j].to_bits(), "G {i}{j}");
+            }
+            assert_eq!(model.h[i].to_bits(), h[i].to_bits(), "h {i}");
+        }
+    }
+
+    #[test]
+    fn the_one_pass_assembly_is_each_integral_to_the_bit() {
+        for &preset in Preset::ALL {
+            let base = BeamParams::preset(preset);
+            for p in [
+                base,
+                BeamParams {
+                    tip_mass_kg: 0.05,
+                    hub_radius_m: 0.03,
+                    ..base
+                },
+            ] {
+                assembled_as_each_integral::<1>(p);
+                assembled_as_each_integral::<2>(p);
+                assembled_as_each_integral::<3>(p);
+                assembled_as_each_integral::<4>(p);
+            }
+        }
     }
 
     #[test]
