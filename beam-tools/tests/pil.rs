@@ -492,8 +492,9 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
             let (drive, host, _) = designs_at(kind, row.payload_kg);
             assert_eq!(drive, host, "{kind} at {} kg", row.payload_kg);
         }
-        // Between grid points the drive mixes the neighbours' designs entry by entry. On the
-        // beam carrying that payload, the mixed design must damp the beam as the exact one.
+        // Between grid points the drive schedules, entry by entry, the quadratic through three
+        // of the designs. On the beam carrying that payload, the scheduled ("mixed") design
+        // must damp the beam as the exact one.
         for w in rows.windows(2) {
             let payload = 0.5 * (w[0].payload_kg + w[1].payload_kg);
             let (drive, host, m) = designs_at(kind, payload);
@@ -519,19 +520,19 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
                 assert!(run.breakdown.is_none() && run.faults.is_empty());
                 metrics(&run).settle_s
             };
-            // The median over three noise draws: the strict band's settle time can jump by a
-            // tenth of a second on one tick of noise-driven strain after the beam has settled
-            // (5.07 ue at 0.93 s, where both designs had settled at 0.78 s).
+            // The mean over nine noise draws: the strict band's settle time is two-valued
+            // here, the last 5 ue ripple of the beam inside the band or just outside it
+            // (lqg at 28 g: 0.71 or 0.82 s, on the mixed design and the exact one alike, the
+            // draw deciding which), so a median of three could put the two designs 0.1 s
+            // apart by the draws alone. A beam that never settles fails.
             let settle = |mixed: bool| {
-                let mut times: Vec<f64> = (1..=3)
-                    .map(|seed| settle_with(mixed, seed).unwrap_or(f64::INFINITY))
-                    .collect();
-                times.sort_by(f64::total_cmp);
-                Some(times[1]).filter(|t| t.is_finite())
+                let times: Option<Vec<f64>> =
+                    (1..=9).map(|seed| settle_with(mixed, seed)).collect();
+                times.map(|t| t.iter().sum::<f64>() / t.len() as f64)
             };
             let (mixed, exact) = (settle(true), settle(false));
             eprintln!(
-                "{kind} at {payload} kg: settle {mixed:?} s mixed, {exact:?} s exact (median of 3)"
+                "{kind} at {payload} kg: settle {mixed:?} s mixed, {exact:?} s exact (mean of 9)"
             );
             let (mixed, exact) = (mixed.unwrap(), exact.unwrap());
             assert!(

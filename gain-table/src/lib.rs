@@ -25,7 +25,7 @@ mod drive_table;
 mod plant;
 pub use drive::DriveSpec;
 pub use drive_table::{design_at, generate_rust, open, LoadedTable};
-pub use plant::{PlantParts, PlantSpec, PLANT_STEP_KG};
+pub use plant::{PlantParts, PlantSpec, DESIGN_STEP_KG, PLANT_STEP_KG};
 
 /// A whole table: the plant its gains were designed for, the drive it configures, and the
 /// rows.

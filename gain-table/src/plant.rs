@@ -18,6 +18,13 @@ use beam_model::{Beam, BeamParams, ModalModel};
 /// number of the plant that is interpolated; see `beam_model::plant::Plant`).
 pub const PLANT_STEP_KG: f64 = 0.005;
 
+/// Widest step of the observer laws' designs over the payload, kg: the drive schedules the
+/// quadratic through each three of them (`model_core::table::schedule_design`), which at
+/// this step stays closer to the design made at the payload than the straight line did
+/// through designs [`PLANT_STEP_KG`] apart (docs/design-gains.md, "The observer designs
+/// between payloads"), with 9 designs a law on the shipped table where it took 13.
+pub const DESIGN_STEP_KG: f64 = 0.00625;
+
 /// The beam a table's gains were designed for.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlantSpec {
@@ -32,6 +39,28 @@ pub struct PlantSpec {
 
 /// A `[plant]` error: the field (if one) and why.
 pub(crate) type PlantError = (Option<&'static str>, String);
+
+/// Zero and every row's payload (as the drive's `f32` holds it), each step between two split
+/// into a multiple of `multiple` equal steps no wider than `step_kg`.
+fn grid(rows: &[Row], step_kg: f64, multiple: usize) -> Vec<f64> {
+    let mut knots: Vec<f64> = rows.iter().map(|r| r.payload_kg as f32 as f64).collect();
+    knots.push(0.0);
+    knots.sort_by(f64::total_cmp);
+    knots.dedup();
+    let mut out = vec![knots[0]];
+    for pair in knots.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        // (Less a hair: a row's payload in f32 is a hair off its decimal, 12.5 g two 6.25 g
+        // steps and not four.)
+        let steps = (b - a) / (step_kg * multiple as f64) - 1e-6;
+        let n = steps.ceil().max(1.0) as usize * multiple;
+        for k in 1..n {
+            out.push((a + (b - a) * k as f64 / n as f64) as f32 as f64);
+        }
+        out.push(b);
+    }
+    out
+}
 
 impl PlantSpec {
     /// A preset's beam with an `modes`-mode model.
@@ -145,20 +174,15 @@ impl PlantSpec {
     /// payload (as the drive's `f32` holds it), and enough points between that no step
     /// exceeds [`PLANT_STEP_KG`].
     pub fn payloads(rows: &[Row]) -> Vec<f64> {
-        let mut knots: Vec<f64> = rows.iter().map(|r| r.payload_kg as f32 as f64).collect();
-        knots.push(0.0);
-        knots.sort_by(f64::total_cmp);
-        knots.dedup();
-        let mut out = vec![knots[0]];
-        for pair in knots.windows(2) {
-            let (a, b) = (pair[0], pair[1]);
-            let n = ((b - a) / PLANT_STEP_KG).ceil().max(1.0) as usize;
-            for k in 1..n {
-                out.push((a + (b - a) * k as f64 / n as f64) as f32 as f64);
-            }
-            out.push(b);
-        }
-        out
+        grid(rows, PLANT_STEP_KG, 1)
+    }
+
+    /// The payloads the observer laws are designed at for `rows`: zero, every row's payload
+    /// and, between each two, an even number of equal steps no wider than
+    /// [`DESIGN_STEP_KG`], so that the drive's threes of designs (`0, 1, 2`, `2, 3, 4`, ...)
+    /// each lie between two rows of gains.
+    pub fn design_payloads(rows: &[Row]) -> Vec<f64> {
+        grid(rows, DESIGN_STEP_KG, 2)
     }
 
     /// The compiled plant for `rows` (see [`Plant`]): payloads from 0 to the heaviest row.
@@ -328,6 +352,26 @@ mod tests {
         assert!(p
             .windows(2)
             .all(|w| w[1] > w[0] && w[1] - w[0] <= PLANT_STEP_KG * 1.0001));
+    }
+
+    #[test]
+    fn the_designs_take_an_even_number_of_steps_between_rows() {
+        let rows = crate::parse(
+            "[plant]\nmodes = 3\npreset = \"aluminium\"\n\n[[row]]\ncontroller = \"pd\"\n\
+             payload_kg = 0.0125\nkp = 1.0\nkd = 0.1\ncost_j = 0.0\n\n[[row]]\n\
+             controller = \"pd\"\npayload_kg = 0.03\nkp = 1.0\nkd = 0.1\ncost_j = 0.0\n",
+            "g",
+        )
+        .unwrap()
+        .rows;
+        let p = PlantSpec::design_payloads(&rows);
+        let at = |kg: f32| p.iter().position(|&x| x == kg as f64).unwrap();
+        // 0 to 12.5 g in two steps, 12.5 to 30 g in four (17.5 g over 4 is within 6.25 g,
+        // over 2 it is not).
+        assert_eq!((p.len(), at(0.0), at(0.0125), at(0.03)), (7, 0, 2, 6));
+        assert!(p
+            .windows(2)
+            .all(|w| w[1] > w[0] && w[1] - w[0] <= DESIGN_STEP_KG * 1.0001));
     }
 
     #[test]

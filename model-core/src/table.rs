@@ -262,29 +262,47 @@ pub struct DesignRow {
     pub design: LqgDesign,
 }
 
-/// The design of law `kind` at `payload_kg` from `rows`, mixed between the neighbouring
-/// rows as [`schedule`] mixes their gains (the same fraction), the end rows held outside
-/// their range; `None` without a row of that law.
+/// The design of law `kind` at `payload_kg` from `rows`: the law's rows taken in threes
+/// from its first (`0, 1, 2`, `2, 3, 4`, ...), and the quadratic through the three about the
+/// payload, by Neville's scheme of three linear mixes ([`LqgDesign::mix`]); an odd row out
+/// at the end mixed linearly with the one before, and the end rows held outside their range;
+/// `None` without a row of that law. The host makes the rows so that no three straddle a row
+/// of gains (docs/design-gains.md, "The observer designs between payloads"): a design follows
+/// its gains, which bend at their rows.
 #[inline(never)] // one copy for the board, which builds a law in two places (docs/results.md)
 pub fn schedule_design(rows: &[DesignRow], kind: LawKind, payload_kg: f32) -> Option<LqgDesign> {
     let mut rows = rows.iter().filter(|r| r.kind == kind);
-    let first = rows.next()?;
-    if !(payload_kg > first.payload_kg) {
-        return Some(first.design);
+    let mut a = rows.next()?;
+    if !(payload_kg > a.payload_kg) {
+        return Some(a.design);
     }
-    let mut below = first;
-    for above in rows {
-        if payload_kg == above.payload_kg {
-            // At a row, its design exactly (a mix with weight 1 can round apart from it).
-            return Some(above.design);
+    let p = payload_kg;
+    let f = |lo: &DesignRow, hi: &DesignRow| (p - lo.payload_kg) / (hi.payload_kg - lo.payload_kg);
+    loop {
+        let Some(m) = rows.next() else {
+            return Some(a.design);
+        };
+        // At a row, its design exactly (a mix with weight 1 can round apart from it).
+        if p == m.payload_kg {
+            return Some(m.design);
         }
-        if payload_kg < above.payload_kg {
-            let f = (payload_kg - below.payload_kg) / (above.payload_kg - below.payload_kg);
-            return Some(below.design.mix(&above.design, f));
+        let Some(b) = rows.next() else {
+            return Some(if p < m.payload_kg {
+                a.design.mix(&m.design, f(a, m))
+            } else {
+                m.design
+            });
+        };
+        if p == b.payload_kg {
+            return Some(b.design);
         }
-        below = above;
+        if p < b.payload_kg {
+            let low = a.design.mix(&m.design, f(a, m));
+            let high = m.design.mix(&b.design, f(m, b));
+            return Some(low.mix(&high, f(a, b)));
+        }
+        a = b;
     }
-    Some(below.design)
 }
 
 /// A drive's plant at its payload with, for an observer law, the design made on the
@@ -513,6 +531,51 @@ pub(crate) mod tests {
         assert_eq!(schedule_design(&rows, LawKind::Lqg, 1.0), Some(b));
         assert_eq!(schedule_design(&rows, LawKind::Lqg, f32::NAN), Some(a));
         assert_eq!(schedule_design(&rows, LawKind::Pd, 0.0), None);
+    }
+
+    /// Through three rows the schedule is the quadratic through them: exact (to f32) on an
+    /// entry that is a quadratic in the payload, at every payload between, on uneven rows;
+    /// the rows themselves exactly; past the last three, a fourth row mixed linearly.
+    #[test]
+    fn designs_are_scheduled_on_the_quadratic_through_three_rows() {
+        let q = |p: f32| 0.3 - 20.0 * p + 4000.0 * p * p;
+        let row = |payload_kg: f32| {
+            let mut design = LqgDesign::ZERO;
+            design.jeff = q(payload_kg);
+            design.k[0] = payload_kg;
+            DesignRow {
+                kind: LawKind::SmcModal,
+                payload_kg,
+                design,
+            }
+        };
+        let rows = [row(0.0), row(0.004), row(0.0125), row(0.02)];
+        for i in 0..=40 {
+            let p = 0.0125 * i as f32 / 40.0;
+            let d = schedule_design(&rows, LawKind::SmcModal, p).unwrap();
+            assert!(
+                (d.jeff - q(p)).abs() < 2e-6,
+                "at {p}: {} for {}",
+                d.jeff,
+                q(p)
+            );
+            assert!((d.k[0] - p).abs() < 1e-8, "at {p}: {}", d.k[0]);
+        }
+        for r in &rows {
+            assert_eq!(
+                schedule_design(&rows, LawKind::SmcModal, r.payload_kg),
+                Some(r.design)
+            );
+        }
+        // The fourth row, past the first three: linear between the third and it.
+        let d = schedule_design(&rows, LawKind::SmcModal, 0.016_25).unwrap();
+        let linear = 0.5 * (q(0.0125) + q(0.02));
+        assert!((d.jeff - linear).abs() < 1e-6 && (d.jeff - q(0.016_25)).abs() > 1e-3);
+        assert_eq!(
+            schedule_design(&rows, LawKind::SmcModal, 0.03),
+            Some(rows[3].design)
+        );
+        assert_eq!(schedule_design(&rows, LawKind::Lqg, 0.01), None);
     }
 
     /// An observer law is designed on the instruments it is given: a coarser encoder is a
