@@ -191,10 +191,11 @@ pub struct LqgDesign {
     /// `ts Mf^-1 S`, added to the reference beam's rates as `theta'^2 ref_s q`. At the
     /// speeds of a fast slew it changes the beam's stiffness by a fifth.
     pub ref_s: [[f32; DESIGN_MODES]; DESIGN_MODES],
-    /// The centrifugal term in the observer's prediction, per (rad/s)^2 of hub rate and per
-    /// tick: `ts M^-1 [0; S]`, the hub's and the modes' accelerations from `w^2 S q`; row 0 is
-    /// the hub's, row `1 + i` mode i's.
-    pub obs_s: [[f32; DESIGN_MODES]; 1 + DESIGN_MODES],
+    /// The centrifugal term in the observer's prediction on the hub, per (rad/s)^2 of hub
+    /// rate and per tick: the hub's row of `ts M^-1 [0; S]`, the accelerations from `w^2 S
+    /// q`. The modes' rows are `ref_s` (`M^-1`'s modal block is `Mf^-1`), which the observer
+    /// reads there: the design holds each number once.
+    pub obs_s_hub: [f32; DESIGN_MODES],
     /// The effective inertia Jeff = Mtt - h' Mqq^-1 h, kg m^2: the hub's with the beam's
     /// modes free (the sliding-mode laws' scale).
     pub jeff: f32,
@@ -241,7 +242,7 @@ impl LqgDesign {
         ref_bd: [0.0; 2 * DESIGN_MODES],
         ref_hub: [0.0; DESIGN_MODES],
         ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
-        obs_s: [[0.0; DESIGN_MODES]; 1 + DESIGN_MODES],
+        obs_s_hub: [0.0; DESIGN_MODES],
         jeff: 0.0,
         mtt: 0.0,
         viscous: 0.0,
@@ -756,11 +757,9 @@ fn reference_beam<const N: usize>(
             out.ref_s[i][j] = ((0..N).map(|l| mf(i, l) * model.s[l][j]).sum::<f64>() * ts_s) as f32;
         }
     }
-    for i in 0..=N {
-        for j in 0..N {
-            out.obs_s[i][j] =
-                ((0..N).map(|l| minv[i][1 + l] * model.s[l][j]).sum::<f64>() * ts_s) as f32;
-        }
+    for j in 0..N {
+        out.obs_s_hub[j] =
+            ((0..N).map(|l| minv[0][1 + l] * model.s[l][j]).sum::<f64>() * ts_s) as f32;
     }
 }
 

@@ -373,8 +373,9 @@ pub fn simulate_mismatched<const N: usize>(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Known {
     /// An observer law's model of the beam: the observer's sampled dynamics, its centrifugal
-    /// term, its strain output and its identifier's beam (whose `G` the drive derives from
-    /// the reference beam's numbers, so it follows `reference`).
+    /// term on the hub, its strain output and its identifier's beam (whose `G` the drive
+    /// derives from the reference beam's numbers, so it follows `reference`, as does the
+    /// observer's centrifugal term on the modes, which is the reference beam's).
     pub observer: bool,
     /// The observer's Kalman gain.
     pub kalman: bool,
@@ -412,7 +413,7 @@ impl Known {
             d.bd = beam.bd;
             d.strain_coef = beam.strain_coef;
             d.strain_omitted = beam.strain_omitted;
-            d.obs_s = beam.obs_s;
+            d.obs_s_hub = beam.obs_s_hub;
             d.count_interval = beam.count_interval;
             d.id_a = beam.id_a;
             d.id_c = beam.id_c;

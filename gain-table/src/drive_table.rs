@@ -296,7 +296,7 @@ mod tests {
         );
         v.extend(d.count_interval.iter().chain([&d.ki]));
         v.extend(d.ref_ad.iter().flatten().chain(&d.ref_bd).chain(&d.ref_hub));
-        v.extend(d.ref_s.iter().flatten().chain(d.obs_s.iter().flatten()));
+        v.extend(d.ref_s.iter().flatten().chain(&d.obs_s_hub));
         v.extend([d.jeff, d.mtt, d.viscous, d.torque_limit_nm]);
         v.extend(d.id_a.iter().chain(&d.id_c));
         v

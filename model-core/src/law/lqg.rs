@@ -669,12 +669,23 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     unrolled!(i in [3 4 5] => {
         update!(
             i,
-            dot5(d.bd[i] * u_last, &d.ad[i], &xk) + w2_est * dot2(-0.0, &d.obs_s[i - RATE], &q_est)
+            dot5(d.bd[i] * u_last, &d.ad[i], &xk) + w2_est * dot2(-0.0, centrifugal(d, i), &q_est)
         )
     });
     state.strain_estimate =
         d.strain_coef[0] * state.estimate[1] + d.strain_coef[1] * state.estimate[2];
     (ff, sigma, pos)
+}
+
+/// The observer's centrifugal row for rate `i` (the hub's, `RATE`, or a mode's): the hub's
+/// is the design's `obs_s_hub`, a mode's the reference beam's `ref_s` row, the same numbers.
+#[cfg(feature = "observer")]
+#[inline(always)]
+fn centrifugal(d: &LqgDesign, i: usize) -> &[f32; DESIGN_MODES] {
+    match i.checked_sub(RATE + 1) {
+        None => &d.obs_s_hub,
+        Some(m) => d.ref_s.get(m).unwrap_or(&d.obs_s_hub),
+    }
 }
 
 /// The factor on the reference beam's bending the feedback holds the beam to: `1 +
