@@ -262,11 +262,15 @@ impl LqgDesign {
     pub fn mix(&self, other: &Self, f: f32) -> Self {
         let mut out = *self;
         let entries: &mut [f32] = bytemuck::cast_slice_mut(core::slice::from_mut(&mut out));
-        let others: &[f32] = bytemuck::cast_slice(core::slice::from_ref(other));
-        for (a, b) in entries.iter_mut().zip(others) {
+        for (a, b) in entries.iter_mut().zip(other.entries()) {
             *a += (b - *a) * f;
         }
         out
+    }
+
+    /// Every entry, in the fields' order: the design as one list of numbers.
+    pub fn entries(&self) -> &[f32] {
+        bytemuck::cast_slice(core::slice::from_ref(self))
     }
 }
 

@@ -58,8 +58,7 @@ impl Table {
     /// The drive this table configures: the plant's model computed on the host, the rows in
     /// the drive's `f32` ([`Row::gain_row`]) and, for each observer law with rows, its
     /// design on the design grid ([`PlantSpec::design_payloads`]) for the gains scheduled
-    /// there, on the table's
-    /// own instruments. Fails, naming the field, for a plant whose model cannot be built or
+    /// there, on the table's own instruments. Fails, naming the field, for a plant whose model cannot be built or
     /// an observer row with no design.
     pub fn drive_table(&self) -> Result<LoadedTable, TableError> {
         let why = |field: Option<&'static str>, message: String| TableError {
@@ -279,34 +278,11 @@ fn row_source(r: &GainRow) -> String {
 mod tests {
     use super::*;
 
-    /// Every entry of a design as one list, for comparing designs entry by entry.
-    fn entries(d: &LqgDesign) -> Vec<f32> {
-        let mut v: Vec<f32> = d.ad.iter().flatten().copied().collect();
-        v.extend(d.bd.iter().chain(&d.strain_coef).chain([&d.strain_omitted]));
-        v.extend(d.l.iter().flatten());
-        v.extend(
-            d.k.iter()
-                .chain(&d.k_move)
-                .chain([&d.k_filter, &d.k_move_filter]),
-        );
-        v.extend(
-            d.k_move_compliance
-                .iter()
-                .chain([&d.k_move_filter_compliance]),
-        );
-        v.extend(d.count_interval.iter().chain([&d.ki]));
-        v.extend(d.ref_ad.iter().flatten().chain(&d.ref_bd).chain(&d.ref_hub));
-        v.extend(d.ref_s.iter().flatten().chain(&d.obs_s_hub));
-        v.extend([d.jeff, d.mtt, d.viscous, d.torque_limit_nm]);
-        v.extend(d.id_a.iter().chain(&d.id_c));
-        v
-    }
-
     /// Between its designs, the shipped table's schedule is the design made at the payload
     /// no further off than the drive's schedule was before it took the quadratic through
     /// three: the straight line through designs at most 5 g apart (13 a law, where there are
     /// now 9) was 1.17 % (lqg) and 1.74 % (smc-modal) of an entry's size off at worst, this
-    /// 0.68 % and 1.41 % (2026-11-28), both at a quarter of a step from the rows.
+    /// 0.68 % and 1.41 % (2026-11-28), at a quarter, half and three quarters of each step.
     #[test]
     fn the_scheduled_design_is_the_design_made_at_the_payload() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml");
@@ -315,16 +291,19 @@ mod tests {
         for kind in [LawKind::Lqg, LawKind::SmcModal] {
             let made = |p: f32| {
                 let law = table.law(kind, p).unwrap();
-                entries(&design_at(&loaded.plant, loaded.drive.instruments, law, p).unwrap())
+                design_at(&loaded.plant, loaded.drive.instruments, law, p)
+                    .unwrap()
+                    .entries()
+                    .to_vec()
             };
             let rows: Vec<&DesignRow> = loaded.designs.iter().filter(|r| r.kind == kind).collect();
             assert_eq!(rows.len(), 9, "{kind}");
             // Each entry's size: its largest over the rows (an entry that is zero throughout,
             // or a rounding's worth, as lqg's integral gain of 1e-11, is held to 1e-6).
-            let size: Vec<f32> = (0..entries(&rows[0].design).len())
+            let size: Vec<f32> = (0..rows[0].design.entries().len())
                 .map(|i| {
                     rows.iter()
-                        .map(|r| entries(&r.design)[i].abs())
+                        .map(|r| r.design.entries()[i].abs())
                         .fold(1e-6, f32::max)
                 })
                 .collect();
@@ -333,8 +312,8 @@ mod tests {
                 for k in 1..4 {
                     let p = pair[0].payload_kg
                         + (pair[1].payload_kg - pair[0].payload_kg) * k as f32 / 4.0;
-                    let scheduled =
-                        entries(&table.designed_plant(kind, p).unwrap().design.unwrap());
+                    let scheduled = table.designed_plant(kind, p).unwrap().design.unwrap();
+                    let scheduled = scheduled.entries();
                     for (i, (s, m)) in scheduled.iter().zip(made(p)).enumerate() {
                         let off = (s - m).abs() / size[i];
                         if off > worst.0 {

@@ -684,6 +684,8 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
 fn centrifugal(d: &LqgDesign, i: usize) -> &[f32; DESIGN_MODES] {
     match i.checked_sub(RATE + 1) {
         None => &d.obs_s_hub,
+        // (`get`: no bounds-check panic in the tick; `i` is at most `RATE + DESIGN_MODES`,
+        // so the fallback is never taken, and the constant `i` folds it away.)
         Some(m) => d.ref_s.get(m).unwrap_or(&d.obs_s_hub),
     }
 }
