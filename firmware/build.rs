@@ -30,6 +30,15 @@ fn main() {
         println!("cargo:warning=invalid gain table: {e}");
         std::process::exit(1)
     });
+    // The exact moves' planner is built in only with the `exact` feature: a table that asks
+    // for them must have it, or its moves would silently be planned otherwise. (The feature
+    // with a table that does not ask only costs flash.)
+    if loaded.table().drive.exact_moves && env::var_os("CARGO_FEATURE_EXACT").is_none() {
+        let why = "its [drive] has `exact_moves = true`: build with `cargo fw --features exact`";
+        eprintln!("error: gain table {}: {why}", path.display());
+        println!("cargo:warning=gain table {}: {why}", path.display());
+        std::process::exit(1)
+    }
     fs::write(
         out.join("gain_table.rs"),
         gain_table::generate_rust(&loaded),

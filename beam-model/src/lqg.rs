@@ -191,6 +191,10 @@ pub struct LqgDesign {
     /// `ts Mf^-1 S`, added to the reference beam's rates as `theta'^2 ref_s q`. At the
     /// speeds of a fast slew it changes the beam's stiffness by a fifth.
     pub ref_s: [[f32; DESIGN_MODES]; DESIGN_MODES],
+    /// The reference beam's frequencies at rest, Hz (the model's hub-free modes,
+    /// `ModalModel::pinned_hz`): where the drive's planner starts its search for a move that
+    /// leaves the reference beam at rest (model-core's `planner::exact`).
+    pub ref_hz: [f32; DESIGN_MODES],
     /// The centrifugal term in the observer's prediction on the hub, per (rad/s)^2 of hub
     /// rate and per tick: the hub's row of `ts M^-1 [0; S]`, the accelerations from `w^2 S
     /// q`. The modes' rows are `ref_s` (`M^-1`'s modal block is `Mf^-1`), which the observer
@@ -242,6 +246,7 @@ impl LqgDesign {
         ref_bd: [0.0; 2 * DESIGN_MODES],
         ref_hub: [0.0; DESIGN_MODES],
         ref_s: [[0.0; DESIGN_MODES]; DESIGN_MODES],
+        ref_hz: [0.0; DESIGN_MODES],
         obs_s_hub: [0.0; DESIGN_MODES],
         jeff: 0.0,
         mtt: 0.0,
@@ -756,6 +761,7 @@ fn reference_beam<const N: usize>(
         out.ref_bd[rat(i)] = e_ref[i][n2] as f32;
     }
     for i in 0..N {
+        out.ref_hz[i] = model.pinned_hz[i] as f32;
         out.ref_hub[i] = (-model.h[i] / model.mtt) as f32;
         for j in 0..N {
             out.ref_s[i][j] = ((0..N).map(|l| mf(i, l) * model.s[l][j]).sum::<f64>() * ts_s) as f32;

@@ -439,6 +439,7 @@ impl Known {
             d.ref_bd = beam.ref_bd;
             d.ref_hub = beam.ref_hub;
             d.ref_s = beam.ref_s;
+            d.ref_hz = beam.ref_hz;
             d.mtt = beam.mtt;
             d.viscous = beam.viscous;
             d.torque_limit_nm = beam.torque_limit_nm;
@@ -504,11 +505,7 @@ pub fn simulate_knowing<const N: usize>(
     }
     .map_err(|e| SimError::Config(e.into()))?;
     let limits = if opts.motion.exact {
-        limits.with_reference_beam(
-            &law,
-            if known.reference { beam } else { nominal },
-            settings.ts_s,
-        )
+        limits.with_reference_beam(&law, settings.ts_s)
     } else {
         limits
     };

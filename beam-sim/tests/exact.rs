@@ -28,7 +28,7 @@ fn planned(deg: f32, exact: bool) -> PlannedMove {
     let ts = settings_for(&m, &SensorConfig::default()).ts_s;
     let limits = Limits::for_law(&m, &law);
     let limits = if exact {
-        limits.with_reference_beam(&built, &m, ts)
+        limits.with_reference_beam(&built, ts)
     } else {
         limits
     };
@@ -127,8 +127,7 @@ fn limits_and_beam() -> (Limits, ReferenceBeam) {
     let m = model();
     let law = common::shipped().law(LawKind::SmcModal, 0.0).unwrap();
     let built = ControlLaw::try_build(law, SensorConfig::default().instruments().on(&m)).unwrap();
-    let limits =
-        Limits::for_law(&m, &law).with_reference_beam(&built, &m, model_core::DEFAULT_TS_S);
+    let limits = Limits::for_law(&m, &law).with_reference_beam(&built, model_core::DEFAULT_TS_S);
     let beam = limits
         .reference_beam
         .expect("smc-modal has a reference beam");
@@ -215,5 +214,44 @@ fn the_planner_runs_the_reference_beam_as_the_tick_does() {
                 "{deg} deg: the tick's {law_end:?}, the planner's {planned_end:?}"
             );
         }
+    }
+}
+
+/// A drive whose table asks for exact moves (`[drive] exact_moves = true`) plans its
+/// observer law's shortest move to a target to leave the law's reference beam at rest, as
+/// the tick runs it (within 0.1 ue); the shipped table's drive, which does not ask, leaves
+/// it ringing with the shaped quintic's residual (10-33 ue of its first mode: the shaper is
+/// tuned to the mode at rest, and the mode's frequency moves with the hub's speed).
+#[test]
+fn a_table_that_asks_for_exact_moves_has_its_drive_plan_them() {
+    use model_core::planner::{plan_through, Waypoint};
+    let kind = LawKind::SmcModal;
+    let shipped = *common::shipped();
+    assert!(!shipped.drive.exact_moves);
+    let mut asks = shipped;
+    asks.drive.exact_moves = true;
+    let ts = asks.settings(0.0).ts_s;
+    for deg in [45.0f32, 180.0] {
+        let (from, to) = (-0.5 * deg.to_radians(), 0.5 * deg.to_radians());
+        let target = [Waypoint {
+            rad: to,
+            at_s: None,
+        }];
+        let residual = |table: &model_core::DriveTable| {
+            let (law, shaper, limits) = table
+                .configure::<{ model_core::law::ALL_LAWS }>(kind, 0.0)
+                .unwrap();
+            let plan = plan_through(from, &target, None, &shaper, &limits).unwrap();
+            let design = law.observer_design().expect("smc-modal has an observer");
+            let beam = ReferenceBeam::of(design, ts).expect("and a reference beam");
+            let q = beam.first_mode(&beam.run(&plan.shaped));
+            (q[0].hypot(q[1]), limits.reference_beam.is_some())
+        };
+        let (exact, planned_on_beam) = residual(&asks);
+        assert!(planned_on_beam, "{deg} deg");
+        assert!(exact < MAX_RESIDUAL_STRAIN, "{deg} deg: {exact}");
+        let (quintic, planned_on_beam) = residual(&shipped);
+        assert!(!planned_on_beam, "{deg} deg");
+        assert!(quintic > 4.0 * MAX_RESIDUAL_STRAIN, "{deg} deg: {quintic}");
     }
 }

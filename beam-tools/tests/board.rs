@@ -282,3 +282,33 @@ fn a_panic_on_the_board_resets_it_and_it_comes_back_with_the_torque_off() {
         "{text}"
     );
 }
+
+/// A table whose `[drive]` asks for exact moves builds only with their planner: without the
+/// firmware's `exact` feature the build fails and says how to build it, rather than a board
+/// that plans those moves otherwise. (A feature set no other build uses, so that it leaves
+/// the boards' builds as they were.)
+#[test]
+fn a_board_whose_table_asks_for_exact_moves_is_not_built_without_them() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = common::scratch("exact-board");
+    let shipped = std::fs::read_to_string(common::shipped_path()).unwrap();
+    let table = dir.join("exact.toml");
+    let text = shipped.replacen(
+        "law = \"smc\"\n",
+        "law = \"smc-modal\"\nexact_moves = true\n",
+        1,
+    );
+    assert_ne!(text, shipped, "the shipped table's [drive] runs smc");
+    std::fs::write(&table, text).unwrap();
+    let out = Command::new(env!("CARGO"))
+        .current_dir(&root)
+        .env("BEAM_GAIN_TABLE", &table)
+        .args(["build", "-p", "firmware", "--release", "--target"])
+        .args(["thumbv7em-none-eabihf", "--features", "observer"])
+        .output()
+        .expect("running cargo");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("exact_moves = true"), "{err}");
+    assert!(err.contains("cargo fw --features exact"), "{err}");
+}

@@ -542,3 +542,104 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
         }
     }
 }
+
+/// A drive whose table asks for exact moves (`[drive] exact_moves = true`, the firmware's
+/// `exact` feature) plans smc-modal's shortest moves exact on its reference beam on the
+/// MCU, as the host does, bit for bit, and sooner than the shaped quintic; its tick stays
+/// within the budget of 1000 instructions.
+#[test]
+fn exact_moves_are_planned_on_the_drive_exactly_as_on_the_host() {
+    if !qemu_present() {
+        return;
+    }
+    use beam_tools::link::pil_host::run_pil_commands;
+    use beam_wire::command::Outcome;
+    // The shipped table, its drive running smc-modal with exact moves, and the PIL drive
+    // built from it (its own binary: a table and features of its own).
+    let root = paths::workspace();
+    let table_path = root.join("target/pil-exact-drive.toml");
+    let shipped_text = std::fs::read_to_string(common::shipped_path()).unwrap();
+    let text = shipped_text.replacen(
+        "law = \"smc\"\n",
+        "law = \"smc-modal\"\nexact_moves = true\n",
+        1,
+    );
+    assert_ne!(text, shipped_text, "the shipped table's [drive] runs smc");
+    std::fs::write(&table_path, text).unwrap();
+    let status = Command::new(env!("CARGO"))
+        .current_dir(&root)
+        .env("BEAM_GAIN_TABLE", &table_path)
+        .args([
+            "build",
+            "-p",
+            "pil",
+            "--bin",
+            "pil-exact",
+            "--features",
+            "exact",
+        ])
+        .args(["--release", "--target", "thumbv7em-none-eabihf"])
+        .status()
+        .expect("running cargo");
+    assert!(
+        status.success(),
+        "building the PIL firmware pil-exact failed"
+    );
+    let table = gain_table::open(&table_path).unwrap().leak();
+    let cfg = PilConfig {
+        elf: root.join("target/thumbv7em-none-eabihf/release/pil-exact"),
+        table,
+        ..config(LawKind::SmcModal, true)
+    };
+    let script = beam_sim::commanded::session_script();
+    let out = run_pil_commands::<3>(
+        BeamParams::aluminium(),
+        &cfg,
+        0.0,
+        &script,
+        beam_sim::sensors::SensorConfig::default(),
+    )
+    .unwrap();
+    assert!(out.identical, "max {} ulps", out.max_ulps);
+    assert_eq!(out.max_ulps, 0);
+    // The session's first move, 0 to 45 deg at the shortest: exact, so shorter than the
+    // shaped quintic the shipped table's drive plans for it.
+    let first = out
+        .pil
+        .exchanges
+        .iter()
+        .find_map(|e| match e.reply.outcome {
+            Outcome::Moving { duration_s } => Some(duration_s),
+            _ => None,
+        })
+        .expect("the session's first move");
+    let (_, shaper, limits) = shipped()
+        .configure::<{ model_core::law::ALL_LAWS }>(LawKind::SmcModal, 0.0)
+        .unwrap();
+    let target = [model_core::planner::Waypoint {
+        rad: 45f32.to_radians(),
+        at_s: None,
+    }];
+    let quintic = model_core::planner::plan_through(0.0, &target, None, &shaper, &limits)
+        .unwrap()
+        .shaped
+        .duration_s();
+    assert!(
+        first < quintic - 0.03,
+        "exact {first} s, quintic {quintic} s"
+    );
+    let end = out.pil.ticks.last().unwrap();
+    assert_eq!(end.mode, Mode::Holding);
+    assert!(
+        end.theta.to_degrees().abs() < 0.05,
+        "{}",
+        end.theta.to_degrees()
+    );
+    if let Some(insns) = out.insns {
+        eprintln!(
+            "smc-modal, exact moves: worst tick {} instructions, mean {:.1}",
+            insns.max, insns.mean
+        );
+        assert!(insns.max <= 1000, "worst tick {} instructions", insns.max);
+    }
+}

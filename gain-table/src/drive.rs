@@ -13,6 +13,7 @@
 //! encoder_reversed = false        # the counter counts down as the hub turns positive
 //! strain_reversed = false         # positive strain reads as negative codes
 //! torque_reversed = false         # positive torque needs the direction pin low
+//! exact_moves = false             # shortest moves exact on the law's reference beam
 //! ```
 //!
 //! The conventions: positive hub angle and torque are the same way round (counter-clockwise
@@ -54,6 +55,12 @@ pub struct DriveSpec {
     /// Positive torque needs the amplifier's direction pin low.
     #[serde(skip_serializing_if = "is_false")]
     pub torque_reversed: bool,
+    /// An observer law's shortest moves to a target planned to leave its reference beam at
+    /// rest (model-core's `planner::exact`): for a table made on the drive's own beam (`beam
+    /// calibrate`, then a table on the plant found). The board needs the firmware's `exact`
+    /// feature for it (`cargo fw --features exact`).
+    #[serde(skip_serializing_if = "is_false")]
+    pub exact_moves: bool,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -77,6 +84,7 @@ impl Default for DriveSpec {
             encoder_reversed: encoder.reversed,
             strain_reversed: adc.reversed,
             torque_reversed: false,
+            exact_moves: false,
         }
     }
 }
@@ -112,6 +120,15 @@ impl DriveSpec {
                 format!(
                     "{} kg is outside the rows' payloads, 0 to {heaviest} kg",
                     self.payload_kg
+                ),
+            );
+        }
+        if self.exact_moves && !self.law.has_observer() {
+            return why(
+                "exact_moves",
+                format!(
+                    "{}: exact moves are planned on an observer law's reference beam (lqg, smc-modal)",
+                    self.law
                 ),
             );
         }
@@ -164,7 +181,7 @@ pub(crate) fn generate(d: &model_core::DriveConfig) -> String {
          instruments: ::model_core::Instruments {{\n        \
          encoder: ::model_core::EncoderSpec {{ counts_per_rev: {}, counter_bits: {}, reversed: {} }},\n        \
          adc: ::model_core::AdcSpec {{ bits: {}, full_scale_strain: {:?}, reversed: {} }},\n    }},\n    \
-         torque_full_scale_nm: {:?},\n    torque_reversed: {},\n}};\n",
+         torque_full_scale_nm: {:?},\n    torque_reversed: {},\n    exact_moves: {},\n}};\n",
         d.law,
         d.payload_kg,
         e.counts_per_rev,
@@ -174,6 +191,7 @@ pub(crate) fn generate(d: &model_core::DriveConfig) -> String {
         a.full_scale_strain,
         a.reversed,
         d.torque_full_scale_nm,
-        d.torque_reversed
+        d.torque_reversed,
+        d.exact_moves
     )
 }

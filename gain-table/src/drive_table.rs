@@ -184,6 +184,7 @@ impl crate::DriveSpec {
             instruments: self.instruments(),
             torque_full_scale_nm: self.torque_full_scale_nm as f32,
             torque_reversed: self.torque_reversed,
+            exact_moves: self.exact_moves,
         }
     }
 }

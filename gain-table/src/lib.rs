@@ -748,6 +748,31 @@ cost_j = 2.0
         );
     }
 
+    /// A drive of an observer law may ask for exact moves: the flag reads back, is rendered
+    /// only when set, and reaches the board's compiled `DRIVE`.
+    #[test]
+    fn an_observer_drive_may_ask_for_exact_moves() {
+        let shipped = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml"),
+        )
+        .unwrap();
+        let text = shipped.replacen(
+            "law = \"smc\"\n",
+            "law = \"smc-modal\"\nexact_moves = true\n",
+            1,
+        );
+        assert_ne!(text, shipped, "the shipped table's [drive] runs smc");
+        let t = parse(&text, "gains.toml").unwrap();
+        assert!(t.drive.exact_moves);
+        assert_eq!(parse(&render(&t), "g").unwrap(), t);
+        assert!(render(&t).contains("\nexact_moves = true\n"));
+        let source = generate_rust(&t.drive_table().unwrap());
+        assert!(source.contains("exact_moves: true"), "{source}");
+        let t = parse(&shipped, "gains.toml").unwrap();
+        assert!(!t.drive.exact_moves && !render(&t).contains("exact_moves"));
+        assert!(generate_rust(&t.drive_table().unwrap()).contains("exact_moves: false"));
+    }
+
     #[test]
     fn every_gain_a_row_holds_is_one_of_its_laws_specs() {
         // Every law's row, from the shipped table: each number that is a gain has the
@@ -840,6 +865,10 @@ cost_j = 2.0
         );
         assert!(source.contains("torque_reversed: true"), "{source}");
         assert!(!render(&parse(GOOD, "g").unwrap()).contains("reversed"));
+        // Exact moves are planned on an observer law's reference beam: not smc's.
+        let e = with("exact_moves = true").unwrap_err();
+        assert_eq!(e.field, Some("exact_moves"));
+        assert!(e.message.contains("observer law"), "{e}");
         // PD runs on its baseline gains without rows.
         assert_eq!(with("law = \"pd\"").unwrap().drive.law, LawKind::Pd);
         let source = generate_rust(&t.drive_table().unwrap());

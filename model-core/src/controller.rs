@@ -275,6 +275,10 @@ struct Config<const K: usize> {
     /// or `u32::MAX` where the converter is too coarse to tell a frozen gauge from a quiet
     /// one.
     frozen_code_ticks: u32,
+    /// The stall watch's thresholds, worked out once: [`STALL_TORQUE_FRACTION`] of the
+    /// torque limit, N m, and the reference's speed at two counts a tick, rad/s.
+    stall_torque_nm: f32,
+    stall_speed_rad_s: f32,
 }
 
 /// Loop state: filters, counters and the mode.
@@ -471,6 +475,8 @@ impl<const K: usize> Controller<K> {
             strain_rate_lpf,
             brake,
             frozen_code_ticks,
+            stall_torque_nm: STALL_TORQUE_FRACTION * s.torque_limit_nm,
+            stall_speed_rad_s: 2.0 * libm::fabsf(signed_rad_per_count) / s.ts_s,
         };
         let st = State {
             offset_code: s.strain_offset_code as f32,

@@ -127,19 +127,12 @@ impl Limits {
 
     /// These limits with the reference beam of `law` run every `ts_s`, so that the shortest
     /// moves to a target are planned to leave it at rest ([`exact`]); none for a law
-    /// without one (no observer). `model` is the model the law's reference beam was made on
-    /// (its hub-free frequencies are the planner's starting points, [`ReferenceBeam::of`]).
+    /// without one (no observer).
     #[cfg(feature = "exact")]
-    pub fn with_reference_beam<const N: usize>(
-        self,
-        law: &crate::law::ControlLaw,
-        model: &ModalModel<N>,
-        ts_s: f32,
-    ) -> Self {
-        let hz = core::array::from_fn(|i| model.pinned_hz.get(i).map_or(0.0, |f| *f as f32));
+    pub fn with_reference_beam(self, law: &crate::law::ControlLaw, ts_s: f32) -> Self {
         let beam = law
             .observer_design()
-            .and_then(|d| ReferenceBeam::of(d, hz, ts_s));
+            .and_then(|d| ReferenceBeam::of(d, ts_s));
         Self {
             reference_beam: beam,
             ..self

@@ -89,6 +89,11 @@ pub struct DriveConfig {
     pub torque_full_scale_nm: f32,
     /// Positive torque needs the amplifier's direction pin low.
     pub torque_reversed: bool,
+    /// An observer law's shortest moves to a target are planned to leave its reference beam
+    /// at rest (`planner::exact`), for a drive whose table was made on its own beam (a
+    /// calibrated one): built in only with model-core's `exact` feature (the firmware's
+    /// build refuses a table that asks for it without), and false for the other laws.
+    pub exact_moves: bool,
 }
 
 impl Instruments {
@@ -234,6 +239,12 @@ impl<'t> DriveTable<'t> {
                 }
             }
             limits.strain_budget = law.law().planned_strain();
+        }
+        // The shortest moves of an observer law planned to leave its reference beam at rest,
+        // where the table asks for them.
+        #[cfg(feature = "exact")]
+        if self.drive.exact_moves {
+            limits = limits.with_reference_beam(&law, self.settings(0.0).ts_s);
         }
         Ok((law, self.shaper(kind, payload_kg), limits))
     }
@@ -441,6 +452,7 @@ pub(crate) mod tests {
                 instruments: Instruments::DEFAULT,
                 torque_full_scale_nm: 10.0,
                 torque_reversed: false,
+                exact_moves: false,
             },
             rows,
             designs: &[],

@@ -346,9 +346,8 @@ impl<const K: usize> Controller<K> {
             && delta == 0
             && reference.is_some_and(|r| {
                 r.vel != 0.0
-                    && (libm::fabsf(torque) >= STALL_TORQUE_FRACTION * limit
-                        || libm::fabsf(r.vel) * cfg.settings.ts_s
-                            >= 2.0 * libm::fabsf(cfg.rad_per_count))
+                    && (libm::fabsf(torque) >= cfg.stall_torque_nm
+                        || libm::fabsf(r.vel) >= cfg.stall_speed_rad_s)
             })
         {
             st.stall_ticks = st.stall_ticks.saturating_add(1);

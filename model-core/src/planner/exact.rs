@@ -65,17 +65,13 @@ pub struct ReferenceBeam {
 }
 
 impl ReferenceBeam {
-    /// The reference beam of `design`, run every `ts_s`, whose frequencies at rest are `hz`
-    /// (Hz: the hub-free, pinned, modes of the model the design was made on,
-    /// `ModalModel::pinned_hz`; the planner's starting points, carried here rather than in
-    /// the design, which a board holds and has no use for them); `None` for a design
-    /// without a reference beam (a law with no observer) or a frequency that is not
-    /// positive.
-    pub fn of(design: &LqgDesign, hz: [f32; DESIGN_MODES], ts_s: f32) -> Option<Self> {
-        let usable = hz.iter().all(|f| f.is_finite() && *f > 0.0)
-            && ts_s.is_finite()
-            && ts_s > 0.0
-            && design.ref_bd.iter().any(|b| *b != 0.0);
+    /// The reference beam of `design`, run every `ts_s` (its frequencies at rest, the
+    /// planner's starting points, are the design's `ref_hz`); `None` for a design without a
+    /// reference beam (a law with no observer: its frequencies are zero) or a tick that is
+    /// not positive.
+    pub fn of(design: &LqgDesign, ts_s: f32) -> Option<Self> {
+        let hz = design.ref_hz;
+        let usable = hz[0] > 0.0 && hz[1] > 0.0 && ts_s > 0.0;
         usable.then_some(ReferenceBeam {
             ad: design.ref_ad,
             bd: design.ref_bd,
@@ -236,19 +232,30 @@ pub fn plan(
     let train = |share: f32, delay: f32| Impulses::pair(share, delay).then(&second);
     // From the first mode's ZV at rest (undamped).
     let (mut share, mut delay) = (0.5f32, 0.5 / beam.hz[0]);
-    let residual = |share: f32, delay: f32| -> Result<([f32; 2], Plan), PlanError> {
+    let plan_at = |share: f32, delay: f32| -> Result<Plan, PlanError> {
         let train = train(share, delay).ok_or(PlanError::Unplannable)?;
-        let plan = Plan::shaped_by(base.clone(), &train)?;
-        Ok((beam.first_mode(&beam.run(&plan.shaped)), plan))
+        Plan::shaped_by(base.clone(), &train)
     };
     let (ds, dt) = (1e-3f32, 1e-4f32);
-    for _ in 0..NEWTON_STEPS {
-        let (r0, plan) = residual(share, delay)?;
-        if libm::fabsf(r0[0]).max(libm::fabsf(r0[1])) < 0.1 * MAX_RESIDUAL_STRAIN {
-            return Ok(Some(plan));
+    // The residual at each step, and the plan made again for the one kept (the same plan:
+    // carrying it out of each step cost the board's flash more than its time).
+    let residual = |share: f32, delay: f32| -> Result<[f32; 2], PlanError> {
+        let plan = plan_at(share, delay)?;
+        Ok(beam.first_mode(&beam.run(&plan.shaped)))
+    };
+    for step in 0..=NEWTON_STEPS {
+        let r0 = residual(share, delay)?;
+        let size = libm::fabsf(r0[0]).max(libm::fabsf(r0[1]));
+        // Done when well within the tolerance; after the last step, if within it at all.
+        if size < 0.1 * MAX_RESIDUAL_STRAIN || step == NEWTON_STEPS {
+            return if size < MAX_RESIDUAL_STRAIN {
+                plan_at(share, delay).map(Some)
+            } else {
+                Ok(None)
+            };
         }
-        let (rs, _) = residual(share + ds, delay)?;
-        let (rt, _) = residual(share, delay + dt)?;
+        let rs = residual(share + ds, delay)?;
+        let rt = residual(share, delay + dt)?;
         // The Jacobian by columns, and its solve.
         let (a, c) = ((rs[0] - r0[0]) / ds, (rs[1] - r0[1]) / ds);
         let (b, d) = ((rt[0] - r0[0]) / dt, (rt[1] - r0[1]) / dt);
@@ -268,7 +275,5 @@ pub fn plan(
             return Ok(None);
         }
     }
-    let (r, plan) = residual(share, delay)?;
-    let fits = libm::fabsf(r[0]).max(libm::fabsf(r[1])) < MAX_RESIDUAL_STRAIN;
-    Ok(fits.then_some(plan))
+    Ok(None)
 }

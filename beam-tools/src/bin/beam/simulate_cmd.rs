@@ -216,8 +216,12 @@ pub(crate) fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
     let payload_kg = a.plant.tip_mass.unwrap_or(0.0) as f32;
     let shaper = table.map_or(Shaper::NONE, |t| t.shaper(a.controller, payload_kg));
     let run_opts = a.run.options()?;
+    let mut motion = a.motion.motion(None, shaper)?;
+    // A table whose drive plans exact moves has its law plan them here too, as the drive
+    // does (shortest moves to a target; others as before).
+    motion.exact |= table.is_some_and(|t| t.drive.exact_moves && t.drive.law == a.controller);
     let opts = SimOptions {
-        motion: a.motion.motion(None, shaper)?,
+        motion,
         fault: a.load.injection()?,
         // The drive's instruments: the table's (an observer law is designed on them).
         sensors: SensorConfig {

@@ -164,7 +164,8 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         coulomb_max_nm: a.coulomb_max,
         moves_deg: a.moves.clone(),
         shortest: a.shortest,
-        exact: a.exact,
+        // As the drive whose table asks for them plans its law's shortest moves.
+        exact: a.exact || table.is_some_and(|t| t.drive.exact_moves && t.drive.law == a.controller),
         move_time_s: a.move_time,
         duration_s: a.duration,
         settle: a.settle.spec()?,
