@@ -16,7 +16,8 @@
 //!   beam's second frequency at rest), and one on the first whose share and delay are
 //!   solved by Newton's method so that the reference beam's first mode ends at rest, its
 //!   residual found by running the reference beam through the whole shaped move tick by
-//!   tick, as the law does.
+//!   tick, as the law does;
+//! - the plan is kept only if that run's root strain stays within [`MAX_PEAK_STRAIN`].
 //!
 //! All in `f32`, outside the tick: a move's plan costs up to [`NEWTON_STEPS`] times three
 //! runs of the reference beam over the move, about 30 multiply-adds a tick (some 300 000
@@ -42,6 +43,26 @@ pub const NEWTON_STEPS: usize = 8;
 /// first-mode amplitude (its coordinate and its rate over its angular frequency). Above it
 /// the planner falls back to the shaped quintic.
 pub const MAX_RESIDUAL_STRAIN: f32 = 2e-6;
+
+/// The largest root strain the exact move's reference beam may reach during the move: above
+/// it the planner plans the shaped quintic instead. On a beam the drive knows, the beam
+/// follows its reference beam and bends as far (over 1400 drawn beams known to the drive,
+/// 20 % off the model, the plans within it bent them to at most 1805 ue), so this keeps the
+/// moves within the 2000 ue a move is held to, with the rest for the feedback. The budget on
+/// the base's static strain ([`Limits::strain_budget`]) does not: the pair that cancels the
+/// first mode at the end is not a ZV during the move, and the mode overshoots the static
+/// strain by up to two fifths (2420 ue at 120 deg on such beams).
+pub const MAX_PEAK_STRAIN: f32 = 1.8e-3;
+
+/// A run of the reference beam over a move ([`ReferenceBeam::run`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Run {
+    /// Its state when the reference comes to rest at the end, `[q_0, q_1, q_0', q_1']` (m
+    /// and m/s).
+    pub state: [f32; 2 * DESIGN_MODES],
+    /// The largest root strain of its two modes on the way.
+    pub peak_strain: f32,
+}
 
 /// A law's reference beam as the tick runs it (`LqgDesign::ref_ad` and the fields beside
 /// it): what the planner needs of the law's design, and nothing else.
@@ -86,13 +107,14 @@ impl ReferenceBeam {
     /// Runs the reference beam over `spline` as the law's tick does (the tick `k` at `k
     /// ts`; its modes step on the acceleration held over the tick,
     /// [`crate::spline::held_acceleration`], and on the reference state's rate squared), and
-    /// returns its state when the reference comes to rest at the end,
-    /// `[q_0, q_1, q_0', q_1']` (m and m/s). (A restatement of the tick's step, which is
-    /// unrolled for its instruction budget; a test holds the two to the same state.)
-    pub fn run<const K: usize>(&self, spline: &Spline<K>) -> [f32; 2 * DESIGN_MODES] {
+    /// returns its state when the reference comes to rest at the end and its peak root
+    /// strain on the way. (A restatement of the tick's step, which is unrolled for its
+    /// instruction budget; a test holds the two to the same state.)
+    pub fn run<const K: usize>(&self, spline: &Spline<K>) -> Run {
         let mut r = [0.0f32; 2 * DESIGN_MODES];
         let mut segment = 0;
         let mut last_acc = 0.0;
+        let mut peak_strain = 0.0f32;
         let end = spline.duration_s();
         // At most a minute of ticks (`MAX_MOVE_S`): the count bounds the loop.
         for k in 0..(super::MAX_MOVE_S / self.ts_s) as u32 + 2 {
@@ -125,8 +147,13 @@ impl ReferenceBeam {
                 *n = z;
             }
             r = next;
+            peak_strain =
+                peak_strain.max(libm::fabsf(self.strain[0] * r[0] + self.strain[1] * r[1]));
         }
-        r
+        Run {
+            state: r,
+            peak_strain,
+        }
     }
 
     /// The first mode's residual in root strain: its coordinate, and its rate over its
@@ -214,8 +241,9 @@ pub fn base(from: f32, to: f32, limits: &Limits) -> Option<Spline<BASE_KNOTS>> {
 }
 
 /// The shortest move from `from` to `to` that leaves `beam` at rest, as above; `Ok(None)`
-/// when it cannot be made (no acceleration, or Newton's method left more than
-/// [`MAX_RESIDUAL_STRAIN`]), for the caller to plan otherwise.
+/// when it cannot be made (no acceleration, Newton's method left more than
+/// [`MAX_RESIDUAL_STRAIN`], or the reference beam bends past [`MAX_PEAK_STRAIN`] on the
+/// way), for the caller to plan otherwise.
 pub fn plan(
     from: f32,
     to: f32,
@@ -239,23 +267,25 @@ pub fn plan(
     let (ds, dt) = (1e-3f32, 1e-4f32);
     // The residual at each step, and the plan made again for the one kept (the same plan:
     // carrying it out of each step cost the board's flash more than its time).
-    let residual = |share: f32, delay: f32| -> Result<[f32; 2], PlanError> {
+    let residual = |share: f32, delay: f32| -> Result<([f32; 2], f32), PlanError> {
         let plan = plan_at(share, delay)?;
-        Ok(beam.first_mode(&beam.run(&plan.shaped)))
+        let run = beam.run(&plan.shaped);
+        Ok((beam.first_mode(&run.state), run.peak_strain))
     };
     for step in 0..=NEWTON_STEPS {
-        let r0 = residual(share, delay)?;
+        let (r0, peak) = residual(share, delay)?;
         let size = libm::fabsf(r0[0]).max(libm::fabsf(r0[1]));
-        // Done when well within the tolerance; after the last step, if within it at all.
+        // Done when well within the tolerance; after the last step, if within it at all;
+        // and only if the reference beam stays within its strain on the way.
         if size < 0.1 * MAX_RESIDUAL_STRAIN || step == NEWTON_STEPS {
-            return if size < MAX_RESIDUAL_STRAIN {
+            return if size < MAX_RESIDUAL_STRAIN && peak <= MAX_PEAK_STRAIN {
                 plan_at(share, delay).map(Some)
             } else {
                 Ok(None)
             };
         }
-        let rs = residual(share + ds, delay)?;
-        let rt = residual(share, delay + dt)?;
+        let (rs, _) = residual(share + ds, delay)?;
+        let (rt, _) = residual(share, delay + dt)?;
         // The Jacobian by columns, and its solve.
         let (a, c) = ((rs[0] - r0[0]) / ds, (rs[1] - r0[1]) / ds);
         let (b, d) = ((rt[0] - r0[0]) / dt, (rt[1] - r0[1]) / dt);
