@@ -52,6 +52,38 @@ fn a_rig_with_a_coarser_encoder_gets_its_own_observer_design_and_sensors() {
     }
 }
 
+/// A table whose drive plans exact moves (`exact_moves = true`) has `simulate` plan its
+/// law's shortest move as the drive does, exact on the reference beam, as `--exact` does
+/// on the shipped table; the shipped table plans the longer shaped quintic.
+#[test]
+fn a_table_that_asks_for_exact_moves_has_simulate_plan_them() {
+    let dir = scratch("exact");
+    let exact = table_with(
+        &dir,
+        "exact.toml",
+        &[(
+            "law = \"smc\"\n",
+            "law = \"smc-modal\"\nexact_moves = true\n",
+        )],
+    );
+    let run = |extra: &[&str]| {
+        let mut args = vec!["simulate", "--controller", "smc-modal", "--json"];
+        args.extend(["--from", "-22.5", "--move", "22.5", "--time", "shortest"]);
+        args.extend(extra);
+        json(&beam(&args))
+    };
+    let asked = run(&["--table", exact.to_str().unwrap()]);
+    let flag = run(&["--exact"]);
+    let quintic = run(&[]);
+    assert_eq!(asked["move_end_s"], flag["move_end_s"]);
+    assert_eq!(asked["settle_s"], flag["settle_s"]);
+    let end = |v: &serde_json::Value| v["move_end_s"].as_f64().unwrap();
+    assert!(
+        end(&asked) < end(&quintic) - 0.03,
+        "{asked} against {quintic}"
+    );
+}
+
 #[test]
 fn a_table_given_is_the_table_used_and_a_bad_one_is_refused_by_name() {
     let dir = scratch("bad");
