@@ -544,9 +544,9 @@ fn the_drives_observer_designs_are_the_hosts_at_the_rows_and_settle_the_beam_bet
 }
 
 /// A drive whose table asks for exact moves (`[drive] exact_moves = true`, the firmware's
-/// `exact` feature) plans smc-modal's shortest moves exact on its reference beam on the
-/// MCU, as the host does, bit for bit, and sooner than the shaped quintic; its tick stays
-/// within the budget of 1000 instructions.
+/// `exact` feature) plans its observer law's shortest moves exact on the reference beam on
+/// the MCU, as the host does, bit for bit, and sooner than the shaped quintic, for smc-modal
+/// and lqg; its tick stays within the budget of 1000 instructions.
 #[test]
 fn exact_moves_are_planned_on_the_drive_exactly_as_on_the_host() {
     if !qemu_present() {
@@ -586,60 +586,66 @@ fn exact_moves_are_planned_on_the_drive_exactly_as_on_the_host() {
         "building the PIL firmware pil-exact failed"
     );
     let table = gain_table::open(&table_path).unwrap().leak();
-    let cfg = PilConfig {
-        elf: root.join("target/thumbv7em-none-eabihf/release/pil-exact"),
-        table,
-        ..config(LawKind::SmcModal, true)
-    };
-    let script = beam_sim::commanded::session_script();
-    let out = run_pil_commands::<3>(
-        BeamParams::aluminium(),
-        &cfg,
-        0.0,
-        &script,
-        beam_sim::sensors::SensorConfig::default(),
-    )
-    .unwrap();
-    assert!(out.identical, "max {} ulps", out.max_ulps);
-    assert_eq!(out.max_ulps, 0);
-    // The session's first move, 0 to 45 deg at the shortest: exact, so shorter than the
-    // shaped quintic the shipped table's drive plans for it.
-    let first = out
-        .pil
-        .exchanges
-        .iter()
-        .find_map(|e| match e.reply.outcome {
-            Outcome::Moving { duration_s } => Some(duration_s),
-            _ => None,
-        })
-        .expect("the session's first move");
-    let (_, shaper, limits) = shipped()
-        .configure::<{ model_core::law::ALL_LAWS }>(LawKind::SmcModal, 0.0)
+    for kind in [LawKind::SmcModal, LawKind::Lqg] {
+        let cfg = PilConfig {
+            elf: root.join("target/thumbv7em-none-eabihf/release/pil-exact"),
+            table,
+            ..config(kind, true)
+        };
+        let script = beam_sim::commanded::session_script();
+        let out = run_pil_commands::<3>(
+            BeamParams::aluminium(),
+            &cfg,
+            0.0,
+            &script,
+            beam_sim::sensors::SensorConfig::default(),
+        )
         .unwrap();
-    let target = [model_core::planner::Waypoint {
-        rad: 45f32.to_radians(),
-        at_s: None,
-    }];
-    let quintic = model_core::planner::plan_through(0.0, &target, None, &shaper, &limits)
-        .unwrap()
-        .shaped
-        .duration_s();
-    assert!(
-        first < quintic - 0.03,
-        "exact {first} s, quintic {quintic} s"
-    );
-    let end = out.pil.ticks.last().unwrap();
-    assert_eq!(end.mode, Mode::Holding);
-    assert!(
-        end.theta.to_degrees().abs() < 0.05,
-        "{}",
-        end.theta.to_degrees()
-    );
-    if let Some(insns) = out.insns {
-        eprintln!(
-            "smc-modal, exact moves: worst tick {} instructions, mean {:.1}",
-            insns.max, insns.mean
+        assert!(out.identical, "{kind}: max {} ulps", out.max_ulps);
+        assert_eq!(out.max_ulps, 0);
+        // The session's first move, 0 to 45 deg at the shortest: exact, so shorter than the
+        // shaped quintic the shipped table's drive plans for it.
+        let first = out
+            .pil
+            .exchanges
+            .iter()
+            .find_map(|e| match e.reply.outcome {
+                Outcome::Moving { duration_s } => Some(duration_s),
+                _ => None,
+            })
+            .expect("the session's first move");
+        let (_, shaper, limits) = shipped()
+            .configure::<{ model_core::law::ALL_LAWS }>(kind, 0.0)
+            .unwrap();
+        let target = [model_core::planner::Waypoint {
+            rad: 45f32.to_radians(),
+            at_s: None,
+        }];
+        let quintic = model_core::planner::plan_through(0.0, &target, None, &shaper, &limits)
+            .unwrap()
+            .shaped
+            .duration_s();
+        assert!(
+            first < quintic - 0.03,
+            "{kind}: exact {first} s, quintic {quintic} s"
         );
-        assert!(insns.max <= 1000, "worst tick {} instructions", insns.max);
+        let end = out.pil.ticks.last().unwrap();
+        assert_eq!(end.mode, Mode::Holding);
+        assert!(
+            end.theta.to_degrees().abs() < 0.05,
+            "{kind}: {}",
+            end.theta.to_degrees()
+        );
+        if let Some(insns) = out.insns {
+            eprintln!(
+                "{kind}, exact moves: worst tick {} instructions, mean {:.1}",
+                insns.max, insns.mean
+            );
+            assert!(
+                insns.max <= 1000,
+                "{kind}: worst tick {} instructions",
+                insns.max
+            );
+        }
     }
 }
