@@ -291,15 +291,8 @@ fn a_panic_on_the_board_resets_it_and_it_comes_back_with_the_torque_off() {
 fn a_board_whose_table_asks_for_exact_moves_is_not_built_without_them() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let dir = common::scratch("exact-board");
-    let shipped = std::fs::read_to_string(common::shipped_path()).unwrap();
     let table = dir.join("exact.toml");
-    let text = shipped.replacen(
-        "law = \"smc\"\n",
-        "law = \"smc-modal\"\nexact_moves = true\n",
-        1,
-    );
-    assert_ne!(text, shipped, "the shipped table's [drive] runs smc");
-    std::fs::write(&table, text).unwrap();
+    common::write_exact_moves_table(&table);
     let out = Command::new(env!("CARGO"))
         .current_dir(&root)
         .env("BEAM_GAIN_TABLE", &table)

@@ -558,14 +558,7 @@ fn exact_moves_are_planned_on_the_drive_exactly_as_on_the_host() {
     // built from it (its own binary: a table and features of its own).
     let root = paths::workspace();
     let table_path = root.join("target/pil-exact-drive.toml");
-    let shipped_text = std::fs::read_to_string(common::shipped_path()).unwrap();
-    let text = shipped_text.replacen(
-        "law = \"smc\"\n",
-        "law = \"smc-modal\"\nexact_moves = true\n",
-        1,
-    );
-    assert_ne!(text, shipped_text, "the shipped table's [drive] runs smc");
-    std::fs::write(&table_path, text).unwrap();
+    common::write_exact_moves_table(&table_path);
     let status = Command::new(env!("CARGO"))
         .current_dir(&root)
         .env("BEAM_GAIN_TABLE", &table_path)

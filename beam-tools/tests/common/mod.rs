@@ -23,6 +23,19 @@ pub fn shipped_path() -> PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../gains.toml")
 }
 
+/// The shipped table with its `[drive]` running smc-modal and asking for exact moves
+/// (`exact_moves = true`), written to `path`: what a calibrated drive's table says.
+pub fn write_exact_moves_table(path: &std::path::Path) {
+    let shipped = std::fs::read_to_string(shipped_path()).unwrap();
+    let text = shipped.replacen(
+        "law = \"smc\"\n",
+        "law = \"smc-modal\"\nexact_moves = true\n",
+        1,
+    );
+    assert_ne!(text, shipped, "the shipped table's [drive] runs smc");
+    std::fs::write(path, text).unwrap();
+}
+
 /// `beam ARGS`, with no `BEAM_GAIN_TABLE` from the caller's environment (the default table is
 /// the repository's).
 pub fn beam(args: &[&str]) -> Output {
