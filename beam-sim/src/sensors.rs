@@ -24,15 +24,19 @@ pub struct SensorConfig {
     pub seed: u64,
 }
 
+/// The simulated gauge's noise unless a run says otherwise, strain (standard deviation): a
+/// bridge amplifier's floor, 0.5 ue.
+pub const STRAIN_NOISE_STD: f64 = 0.5e-6;
+
 impl SensorConfig {
     /// Sensors with `instruments` (a drive's table's, or a rig's): a bridge offset of 1234
-    /// codes, 0.5 ue of strain noise, seed 1.
+    /// codes, [`STRAIN_NOISE_STD`] of strain noise, seed 1.
     pub fn reading(instruments: Instruments) -> Self {
         Self {
             encoder: instruments.encoder,
             adc: instruments.adc,
             adc_offset_code: 1234,
-            strain_noise_std: 0.5e-6,
+            strain_noise_std: STRAIN_NOISE_STD,
             seed: 1,
         }
     }

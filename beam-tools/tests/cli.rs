@@ -771,3 +771,124 @@ fn lqg_brings_a_soft_heavy_beam_through_its_fastest_half_turn() {
     assert!(v["peak_root_strain_ue"].as_f64().unwrap() < 2000.0, "{v}");
     assert!(v["settle_s"].as_f64().is_some_and(|s| s < 4.0), "{v}");
 }
+
+#[test]
+fn the_simulated_sensors_resolve_what_they_are_told() {
+    let dir = scratch("sensors");
+    let csv = dir.join("run.csv");
+    let out = beam(&[
+        "simulate",
+        "--controller",
+        "pd",
+        "--from",
+        "0",
+        "--move",
+        "10",
+        "--duration",
+        "0.5",
+        "--encoder-counts",
+        "4096",
+        "--gauge-noise-ue",
+        "5",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (theta, strain, truth) = (
+        col("theta_rad"),
+        col("root_strain"),
+        col("root_strain_true"),
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // The encoder reads whole counts of a turn's 4096th (not the table's 16384th): every
+    // reading a whole number of them from the first, and the hub went through them.
+    let step = std::f64::consts::TAU / 4096.0;
+    let counts: Vec<f64> = rows
+        .iter()
+        .map(|r| (r[theta] - rows[0][theta]) / step)
+        .collect();
+    for c in &counts {
+        assert!((c - c.round()).abs() < 1e-3, "{c} counts");
+    }
+    let turned = counts[counts.len() - 1];
+    assert!(
+        (turned - 10.0 / 360.0 * 4096.0).abs() < 3.0,
+        "{turned} counts"
+    );
+    // The gauge reads the true strain with 5 ue of noise (the converter's step is 0.0003 ue).
+    let noise: Vec<f64> = rows.iter().map(|r| (r[strain] - r[truth]) * 1e6).collect();
+    let n = noise.len() as f64;
+    let mean = noise.iter().sum::<f64>() / n;
+    let rms = (noise.iter().map(|e| (e - mean) * (e - mean)).sum::<f64>() / n).sqrt();
+    assert!(mean.abs() < 0.5, "mean {mean} ue");
+    assert!((rms - 5.0).abs() < 0.4, "rms {rms} ue over {n} ticks");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn sensors_that_cannot_be_are_refused_in_one_line() {
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["simulate", "--gauge-noise-ue", "0"],
+            "--gauge-noise-ue 0 must be in (0, 1000]",
+        ),
+        (
+            &["simulate", "--gauge-noise-ue", "-1"],
+            "--gauge-noise-ue -1 must be in (0, 1000]",
+        ),
+        (
+            &["sweep", "--gauge-noise-ue", "nan"],
+            "--gauge-noise-ue NaN must be in (0, 1000]",
+        ),
+        (
+            &["simulate", "--encoder-counts", "0"],
+            "--encoder-counts must be > 0",
+        ),
+        // 2^15 - 2 counts a millisecond of 2^22 a turn are 49.1 rad/s, under the drive's 50.
+        (
+            &["sweep", "--encoder-counts", "4194304"],
+            "keeps count only up to 49.1 rad/s",
+        ),
+    ];
+    for (args, says) in cases {
+        let out = beam(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(out.stdout.is_empty(), "{args:?}");
+    }
+}
+
+#[test]
+fn a_sweep_reports_the_sensors_it_ran_on() {
+    let run = |extra: &[&str]| {
+        let mut args = vec!["sweep", "--cases", "4", "--no-peer", "--json"];
+        args.extend_from_slice(extra);
+        json(&beam(&args))
+    };
+    let shipped = run(&[]);
+    assert_eq!(shipped["encoder_counts_per_rev"], 16384);
+    assert_eq!(shipped["gauge_noise_ue"], 0.5);
+    let coarse = run(&["--encoder-counts", "1024", "--gauge-noise-ue", "2"]);
+    assert_eq!(coarse["encoder_counts_per_rev"], 1024);
+    assert_eq!(coarse["gauge_noise_ue"], 2.0);
+    // A sixteenth of the encoder leaves the paper's law's hub further off 2 s on.
+    let err = |v: &serde_json::Value| v["metrics"]["err_deg_t2_0"]["p50"].as_f64().unwrap();
+    assert!(
+        err(&coarse) > err(&shipped),
+        "{} {}",
+        err(&coarse),
+        err(&shipped)
+    );
+}

@@ -89,6 +89,28 @@ impl Default for DriveSpec {
     }
 }
 
+/// The fastest hub speed the drive takes as physically possible, rad/s: a bigger change of
+/// count in a tick is an encoder fault (`ControllerSettings::max_speed_rad_s`), and the
+/// drive is refused an encoder whose counter cannot keep count at it.
+pub const ENCODER_TOP_RAD_S: f64 =
+    model_core::ControllerSettings::new(model_core::Instruments::DEFAULT).max_speed_rad_s as f64;
+
+/// Whether `encoder` read every tick keeps count of a hub turning at [`ENCODER_TOP_RAD_S`]
+/// (a counter that moves half its range in a tick is read as turning the other way), as the
+/// drive checks it when it is built. `Err` says why not, and what to change.
+pub fn encoder_reads_the_hub(encoder: &model_core::EncoderSpec) -> Result<(), String> {
+    let top = encoder.max_rate_rad_s(f64::from(model_core::DEFAULT_TS_S));
+    if top >= ENCODER_TOP_RAD_S {
+        return Ok(());
+    }
+    Err(format!(
+        "a {}-bit counter at {} counts per revolution keeps count only up to {top:.1} rad/s \
+         at the 1 kHz tick, under the {ENCODER_TOP_RAD_S} rad/s the drive takes as the \
+         fastest a hub can turn: widen the counter (encoder_counter_bits) or use fewer counts",
+        encoder.counter_bits, encoder.counts_per_rev
+    ))
+}
+
 /// A `[drive]` error: the field and why.
 pub(crate) type DriveError = (&'static str, String);
 
@@ -142,6 +164,9 @@ impl DriveSpec {
             if !(2..=32).contains(&bits) {
                 return why(field, format!("{bits} is not 2 to 32"));
             }
+        }
+        if let Err(m) = encoder_reads_the_hub(&self.instruments().encoder) {
+            return why("encoder_counter_bits", m);
         }
         if !(self.strain_full_scale.is_finite() && self.strain_full_scale > 0.0) {
             return why(

@@ -23,7 +23,7 @@ pub use model_core;
 mod drive;
 mod drive_table;
 mod plant;
-pub use drive::DriveSpec;
+pub use drive::{encoder_reads_the_hub, DriveSpec, ENCODER_TOP_RAD_S};
 pub use drive_table::{design_at, generate_rust, open, LoadedTable};
 pub use plant::{PlantParts, PlantSpec, DESIGN_STEP_KG, PLANT_STEP_KG};
 
@@ -845,6 +845,14 @@ cost_j = 2.0
         );
         assert_eq!(field("adc_bits = 40"), Some("adc_bits"));
         assert_eq!(field("strain_full_scale = 0.0"), Some("strain_full_scale"));
+        // The counter must move less than half its range a tick at the 50 rad/s the drive
+        // takes as possible: 2^15 - 2 counts a millisecond are 98.2 rad/s at 2^21 counts a
+        // turn, and 49.1 rad/s at 2^22.
+        assert!(with("encoder_counts_per_rev = 2097152").is_ok());
+        let e = with("encoder_counts_per_rev = 4194304").unwrap_err();
+        assert_eq!(e.field, Some("encoder_counter_bits"));
+        assert!(e.message.contains("49.1 rad/s"), "{e}");
+        assert!(with("encoder_counts_per_rev = 4194304\nencoder_counter_bits = 24").is_ok());
         // The amplifier must reach the plant's 10 N m.
         let e = with("torque_full_scale_nm = 8.0").unwrap_err();
         assert_eq!(e.field, Some("torque_full_scale_nm"));

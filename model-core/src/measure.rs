@@ -36,6 +36,15 @@ impl EncoderSpec {
         2.0 * core::f64::consts::PI / self.counts_per_rev as f64
     }
 
+    /// The fastest hub speed, rad/s, a controller reading the counter every `ts_s` accepts
+    /// as its physical limit (`ControllerSettings::max_speed_rad_s`): a change is taken
+    /// modulo the counter's width ([`CounterExtender::update`]), so the most counts a tick
+    /// at that speed, rounded up, must stay below `2^(bits-1) - 1`.
+    pub fn max_rate_rad_s(&self, ts_s: f64) -> f64 {
+        let half = 1u64 << (self.counter_bits.clamp(2, 32) - 1);
+        (half - 2) as f64 * self.rad_per_count() / ts_s
+    }
+
     /// Radians of hub angle per count up: [`EncoderSpec::rad_per_count`], negative when
     /// [`reversed`](EncoderSpec::reversed).
     pub fn signed_rad_per_count(&self) -> f64 {

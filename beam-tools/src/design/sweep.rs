@@ -49,6 +49,9 @@ pub struct SweepSpec {
     /// The drive's instruments, which the simulated sensors are and the observer laws are
     /// designed on (a gain table's `[drive]`).
     pub instruments: Instruments,
+    /// The simulated gauge's noise, strain (standard deviation; the observer laws are
+    /// designed on their own assumption of it, whatever it is).
+    pub strain_noise_std: f64,
     /// Feed the controller's observer law the true state ([`SimOptions::true_state`]).
     pub true_state: bool,
     /// The parts of each case's drive built on the drawn beam instead of the nominal one at
@@ -319,6 +322,7 @@ impl<const N: usize> CaseBeams<N> {
         let opts = SimOptions {
             sensors: SensorConfig {
                 seed: spec.seed ^ self.index as u64,
+                strain_noise_std: spec.strain_noise_std,
                 ..SensorConfig::reading(spec.instruments)
             },
             motion: self.perturbation.motion(shaper),
@@ -512,6 +516,7 @@ mod tests {
             duration_s: DEFAULT_DURATION_S,
             settle: SettleSpec::default(),
             instruments: Instruments::DEFAULT,
+            strain_noise_std: beam_sim::sensors::STRAIN_NOISE_STD,
             true_state: false,
             drive_knows: Known::NONE,
             known_params: KnownParams::ALL,

@@ -363,6 +363,73 @@ impl SettleArgs {
     }
 }
 
+/// What the simulated sensors resolve, in place of the gain table's: what `simulate` and
+/// `sweep` take to show what each sensor costs a law (its observer's estimate against the
+/// beam's true state, `--true-state`).
+#[derive(Args, Clone, Copy)]
+struct SensorArgs {
+    /// The encoder's counts per revolution (after quadrature decoding) in place of the gain
+    /// table's `[drive]`: the simulated encoder, the drive's decoding of it and the observer
+    /// laws' designs all take it, as a drive whose table names that encoder does. Its
+    /// counter (the table's `encoder_counter_bits`) must still keep count at 40 rad/s.
+    #[arg(long, value_name = "N")]
+    encoder_counts: Option<u32>,
+    /// The simulated root gauge's noise, microstrain RMS [default: 0.5], in (0, 1000]. The
+    /// observer laws stay designed on the noise they assume (0.5 ue), as a drive that does
+    /// not know its gauge is noisier would be. Not 0: a converter's code that never moves
+    /// is what the drive's monitor takes for a stuck gauge.
+    #[arg(long, value_name = "UE", allow_negative_numbers = true)]
+    gauge_noise_ue: Option<f64>,
+}
+
+impl SensorArgs {
+    /// `instruments` with the encoder given, checked.
+    fn instruments(
+        &self,
+        instruments: model_core::Instruments,
+    ) -> anyhow::Result<model_core::Instruments> {
+        let Some(counts) = self.encoder_counts else {
+            return Ok(instruments);
+        };
+        if counts == 0 {
+            bail!("--encoder-counts must be > 0");
+        }
+        let encoder = model_core::EncoderSpec {
+            counts_per_rev: counts,
+            ..instruments.encoder
+        };
+        gain_table::encoder_reads_the_hub(&encoder)
+            .map_err(|m| anyhow::anyhow!("--encoder-counts {counts}: {m}"))?;
+        Ok(model_core::Instruments {
+            encoder,
+            ..instruments
+        })
+    }
+
+    /// The gauge's noise, strain, checked.
+    fn strain_noise_std(&self) -> anyhow::Result<f64> {
+        match self.gauge_noise_ue {
+            None => Ok(beam_sim::sensors::STRAIN_NOISE_STD),
+            Some(ue) if ue.is_finite() && ue > 0.0 && ue <= 1000.0 => Ok(ue * 1e-6),
+            Some(ue) => bail!("--gauge-noise-ue {ue} must be in (0, 1000] microstrain"),
+        }
+    }
+
+    /// `sensors` with the encoder and the gauge's noise given, checked.
+    fn sensors(
+        &self,
+        sensors: beam_sim::sensors::SensorConfig,
+    ) -> anyhow::Result<beam_sim::sensors::SensorConfig> {
+        let instruments = self.instruments(sensors.instruments())?;
+        Ok(beam_sim::sensors::SensorConfig {
+            encoder: instruments.encoder,
+            adc: instruments.adc,
+            strain_noise_std: self.strain_noise_std()?,
+            ..sensors
+        })
+    }
+}
+
 /// What `simulate` and `pil` share: how long, which noise, what to write.
 #[derive(Args)]
 struct RunArgs {

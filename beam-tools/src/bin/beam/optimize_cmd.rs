@@ -438,6 +438,7 @@ fn scenarios(
         duration_s: beam_tools::design::sweep::DEFAULT_DURATION_S,
         settle: Default::default(),
         instruments: instruments(a)?,
+        strain_noise_std: beam_sim::sensors::STRAIN_NOISE_STD,
         true_state: false,
         drive_knows: beam_sim::sim::Known::NONE,
         known_params: beam_tools::design::sweep::KnownParams::ALL,

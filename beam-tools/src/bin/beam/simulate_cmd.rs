@@ -2,7 +2,7 @@
 //! beam, with the gains, shaper and instruments of a gain table or given on the command line;
 //! the metrics, and optionally the trace and the figures.
 
-use crate::{beam, named, print_summary, run_json, MoveArgs, PlantArgs, RunArgs};
+use crate::{beam, named, print_summary, run_json, MoveArgs, PlantArgs, RunArgs, SensorArgs};
 use anyhow::{anyhow, bail};
 use beam_sim::sensors::SensorConfig;
 use beam_sim::sim::{simulate, FaultKind, Injection, SimOptions, SimResult};
@@ -42,6 +42,8 @@ pub(crate) struct SimulateArgs {
     /// see what the observer costs (refused for the other laws).
     #[arg(long)]
     true_state: bool,
+    #[command(flatten)]
+    sensors: SensorArgs,
     /// PD proportional gain, N m/rad.
     #[arg(long, allow_negative_numbers = true)]
     kp: Option<f32>,
@@ -223,12 +225,13 @@ pub(crate) fn run_simulate(a: &SimulateArgs) -> anyhow::Result<()> {
     let opts = SimOptions {
         motion,
         fault: a.load.injection()?,
-        // The drive's instruments: the table's (an observer law is designed on them).
-        sensors: SensorConfig {
+        // The drive's instruments: the table's (an observer law is designed on them), or
+        // the encoder and gauge noise given.
+        sensors: a.sensors.sensors(SensorConfig {
             encoder: table.map_or(run_opts.sensors.encoder, |t| t.drive.instruments.encoder),
             adc: table.map_or(run_opts.sensors.adc, |t| t.drive.instruments.adc),
             ..run_opts.sensors
-        },
+        })?,
         true_state: a.true_state,
         ..run_opts
     };

@@ -1,7 +1,7 @@
 //! `beam sweep`: Monte Carlo over parameter errors and payloads, the scheduled controller
 //! against the PD baseline on the same beams; percentiles, a CSV per case and histograms.
 
-use crate::{beam, damping_range, named, PlantArgs, SettleArgs};
+use crate::{beam, damping_range, named, PlantArgs, SensorArgs, SettleArgs};
 use anyhow::{bail, Context};
 use beam_sim::metrics::Metrics;
 use beam_sim::sim::Known;
@@ -86,6 +86,8 @@ pub struct SweepArgs {
     /// the instruments as always).
     #[arg(long)]
     true_state: bool,
+    #[command(flatten)]
+    sensors: SensorArgs,
     /// Build each case's drive on the drawn beam instead of the nominal one (the laws'
     /// designs, the planner's inertia; the shapers' frequencies scaled by the drawn beam's
     /// first hub-free frequency against the nominal's): what identifying each beam could at
@@ -169,7 +171,10 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         move_time_s: a.move_time,
         duration_s: a.duration,
         settle: a.settle.spec()?,
-        instruments: table.map_or(model_core::Instruments::DEFAULT, |t| t.drive.instruments),
+        instruments: a
+            .sensors
+            .instruments(table.map_or(model_core::Instruments::DEFAULT, |t| t.drive.instruments))?,
+        strain_noise_std: a.sensors.strain_noise_std()?,
         true_state: a.true_state,
         drive_knows: a.known(),
         known_params: a.known_params(),
@@ -190,9 +195,9 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         .is_some()
         .then(|| LawSummary::of(&cases, |c| c.peer.as_ref()));
     if a.json {
-        print_json(a, seconds, &controller, &baseline, peer.as_ref());
+        print_json(a, &spec, seconds, &controller, &baseline, peer.as_ref());
     } else {
-        print_text(a, seconds, &controller, &baseline, peer.as_ref());
+        print_text(a, &spec, seconds, &controller, &baseline, peer.as_ref());
     }
     Ok(())
 }
@@ -370,6 +375,7 @@ fn write_files(a: &SweepArgs, nominal: &BeamParams, cases: &[Case]) -> anyhow::R
 
 fn print_json(
     a: &SweepArgs,
+    spec: &SweepSpec,
     seconds: f64,
     controller: &LawSummary,
     baseline: &LawSummary,
@@ -407,6 +413,11 @@ fn print_json(
     put("seconds", json!(seconds));
     put("duration_s", json!(a.duration));
     put("settle_band", json!(a.settle.spec().ok()));
+    put(
+        "encoder_counts_per_rev",
+        json!(spec.instruments.encoder.counts_per_rev),
+    );
+    put("gauge_noise_ue", json!(spec.strain_noise_std * 1e6));
     put("breakdowns", json!(controller.breakdowns));
     put("unsettled", json!(controller.unsettled));
     put("faulted", json!(controller.faulted));
@@ -441,6 +452,7 @@ fn print_json(
 
 fn print_text(
     a: &SweepArgs,
+    spec: &SweepSpec,
     seconds: f64,
     controller: &LawSummary,
     baseline: &LawSummary,
@@ -470,6 +482,11 @@ fn print_text(
             spelled(&a.drive_knows_params).join(", ")
         )
     };
+    println!(
+        "  sensors: encoder {} counts/rev, gauge noise {} ue RMS",
+        spec.instruments.encoder.counts_per_rev,
+        spec.strain_noise_std * 1e6
+    );
     if a.drive_knows_beam {
         println!("  each drive built on {beam} (--drive-knows-beam)");
     } else if !a.drive_knows.is_empty() {
