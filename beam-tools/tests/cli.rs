@@ -892,3 +892,43 @@ fn a_sweep_reports_the_sensors_it_ran_on() {
         err(&shipped)
     );
 }
+
+#[test]
+fn a_finer_encoder_does_not_cost_a_beam_off_the_model_its_settling() {
+    // The sweep's case 30 on seed 1: a soft, dense beam carrying 50 g (EI 0.81, density 1.08
+    // times the model's). Designed on a 2^20-count encoder's own quantisation, smc-modal's
+    // observer followed the encoder so closely that this beam's half turn rang on past
+    // 2400 ue and never settled; designed no finer than the reference encoder, it settles.
+    let v = json(&beam(&[
+        "sweep",
+        "--controller",
+        "smc-modal",
+        "--moves",
+        "180",
+        "--shortest",
+        "--cases",
+        "200",
+        "--coulomb-max",
+        "0.05",
+        "--damping-ratio",
+        "0.005,0.02",
+        "--duration",
+        "4",
+        "--seed",
+        "1",
+        "--encoder-counts",
+        "1048576",
+        "--case",
+        "30",
+        "--json",
+    ]));
+    let draw = &v["draw"];
+    let near = |k: &str, x: f64| (draw[k].as_f64().unwrap() - x).abs() < 0.01;
+    assert!(
+        near("ei_scale", 0.81) && near("rho_scale", 1.08) && near("payload_kg", 0.05),
+        "{draw}"
+    );
+    let settle = v["settle_s"].as_f64();
+    assert!(settle.is_some_and(|s| s < 1.0), "{settle:?}");
+    assert!(v["peak_root_strain_ue"].as_f64().unwrap() < 2000.0, "{v}");
+}

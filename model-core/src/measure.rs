@@ -104,6 +104,18 @@ pub struct CounterWidth {
     pub shift: u32,
 }
 
+/// The least hub-angle noise an observer is designed to assume, rad: the reference
+/// encoder's quantisation ([`EncoderSpec::DEFAULT`], 2 pi / 16384 / sqrt(12); a test checks
+/// it), the encoder the observer laws' margins on beams off their model were measured with.
+/// A finer encoder is read as finely, but the observer does not lean on it harder: designed
+/// on 2^20 counts' own quantisation, it followed the encoder so closely that on soft, dense
+/// beams carrying 30-50 g (EI 0.8, density 1.06-1.18 times the model's) smc-modal's 180 deg
+/// moves rang on without end, past 2200 ue: 3 to 7 of 200 beams on each of three seeds,
+/// with faults latched on 5 to 7 (the README's sweep)
+/// (docs/design.md, section 4b, "What the observer costs, by sensor and by mode"). With the
+/// floor none did, and the p95 stayed within 0.01 s of the reference encoder's.
+pub const ANGLE_NOISE_FLOOR_RAD: f64 = 1.107_055_276_021_861_5e-4;
+
 /// How a drive reads its hub and its beam: the encoder and the root strain converter. The
 /// loop decodes with them, the simulated sensors quantise with them, and the observer laws
 /// are designed on their noise (`Instruments::noise`).
@@ -126,13 +138,13 @@ impl Instruments {
     };
 
     /// The noise an observer assumes on these instruments: the encoder's quantisation (step /
-    /// sqrt(12)) and the root gauge's, at least
+    /// sqrt(12)), at least [`ANGLE_NOISE_FLOOR_RAD`], and the root gauge's, at least
     /// [`ASSUMED_STRAIN_NOISE`](crate::law::ASSUMED_STRAIN_NOISE) (a bridge amplifier's floor,
     /// above a fine converter's quantisation).
     pub fn noise(&self) -> beam_model::lqg::SensorNoise {
         let quantum = |step: f64| step / libm::sqrt(12.0);
         beam_model::lqg::SensorNoise {
-            theta_rad: quantum(self.encoder.rad_per_count()),
+            theta_rad: quantum(self.encoder.rad_per_count()).max(ANGLE_NOISE_FLOOR_RAD),
             encoder_step_rad: self.encoder.signed_rad_per_count(),
             strain: quantum(self.adc.strain_per_code()).max(crate::law::ASSUMED_STRAIN_NOISE),
         }
@@ -353,6 +365,29 @@ impl LowPass {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn the_observer_assumes_no_finer_angle_than_the_reference_encoder_resolves() {
+        let step = |counts_per_rev| Instruments {
+            encoder: EncoderSpec {
+                counts_per_rev,
+                ..EncoderSpec::DEFAULT
+            },
+            ..Instruments::DEFAULT
+        };
+        // Uniform quantisation of a 16384th of a turn: its standard deviation.
+        let reference = 2.0 * core::f64::consts::PI / 16384.0 / libm::sqrt(12.0);
+        assert!((ANGLE_NOISE_FLOOR_RAD - reference).abs() < 1e-12 * reference);
+        assert_eq!(step(16384).noise().theta_rad, reference);
+        // A coarser encoder is assumed as coarse as it is; a finer one no finer than that.
+        assert_eq!(step(4096).noise().theta_rad, 4.0 * reference);
+        assert_eq!(step(1 << 20).noise().theta_rad, ANGLE_NOISE_FLOOR_RAD);
+        // Its reading is still taken as finely as it comes: the count's interval.
+        assert_eq!(
+            step(1 << 20).noise().encoder_step_rad,
+            2.0 * core::f64::consts::PI / f64::from(1u32 << 20)
+        );
+    }
 
     #[test]
     fn low_pass_has_the_documented_coefficient_and_dc_gain() {
