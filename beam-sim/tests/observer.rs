@@ -311,8 +311,12 @@ fn what_the_observer_loses_after_the_move_by_sensor_and_by_mode() {
         assert!(found.total_rms < 1.1 * losses[0].total_rms, "EI x{ei}");
     }
     // Ideal sensors leave the observed modes' error smaller than the shipped ones do, and the
-    // encoder's count is what the second mode's estimate loses: a finer one takes that
-    // error down by more than five times (measured 2026-11-26: 0.48 to 0.05 ue).
+    // encoder's count is part of what the second mode's estimate loses: read 64 times
+    // finer by the same observer (designed no finer than the reference encoder resolves,
+    // `ANGLE_NOISE_FLOOR_RAD`), that error falls by a quarter (measured 2026-11-28: 0.48 to
+    // 0.36 ue). An observer designed on the finer encoder's own quantisation took it to
+    // 0.05 ue (2026-11-26), and followed the encoder so closely that soft, loaded beams off
+    // its model rang on without end.
     for m in 0..DESIGN_MODES {
         assert!(
             losses[3].per_mode_rms[m] < losses[0].per_mode_rms[m],
@@ -320,7 +324,7 @@ fn what_the_observer_loses_after_the_move_by_sensor_and_by_mode() {
             m + 1
         );
     }
-    assert!(losses[2].per_mode_rms[1] < 0.2 * losses[0].per_mode_rms[1]);
+    assert!(losses[2].per_mode_rms[1] < 0.85 * losses[0].per_mode_rms[1]);
 }
 
 /// With the true state fed to the law (`--true-state`, what the observer costs), the law
