@@ -370,12 +370,13 @@ impl SettleArgs {
 struct SensorArgs {
     /// The encoder's counts per revolution (after quadrature decoding) in place of the gain
     /// table's `[drive]`: the simulated encoder, the drive's decoding of it and the observer
-    /// laws' designs all take it, as a drive whose table names that encoder does. Its
-    /// counter (the table's `encoder_counter_bits`) must still keep count at 40 rad/s.
+    /// laws' designs all take it, as a drive whose table names that encoder does (designed
+    /// no finer than the reference encoder resolves). Its counter (the table's
+    /// `encoder_counter_bits`) must still keep count at the drive's 50 rad/s.
     #[arg(long, value_name = "N")]
     encoder_counts: Option<u32>,
     /// The simulated root gauge's noise, microstrain RMS [default: 0.5], in (0, 1000]. The
-    /// observer laws stay designed on the noise they assume (0.5 ue), as a drive that does
+    /// observer laws stay designed on the noise they assume (0.6 ue), as a drive that does
     /// not know its gauge is noisier would be. Not 0: a converter's code that never moves
     /// is what the drive's monitor takes for a stuck gauge.
     #[arg(long, value_name = "UE", allow_negative_numbers = true)]
