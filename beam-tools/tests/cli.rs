@@ -739,28 +739,7 @@ fn a_reader_that_closes_the_pipe_early_ends_the_run_quietly() {
 /// beam stays within the 2000 ue the moves are held to and settles.
 #[test]
 fn lqg_brings_a_soft_heavy_beam_through_its_fastest_half_turn() {
-    let v = json(&beam(&[
-        "sweep",
-        "--controller",
-        "lqg",
-        "--moves",
-        "180",
-        "--shortest",
-        "--cases",
-        "200",
-        "--coulomb-max",
-        "0.05",
-        "--damping-ratio",
-        "0.005,0.02",
-        "--no-peer",
-        "--duration",
-        "4",
-        "--seed",
-        "2",
-        "--case",
-        "108",
-        "--json",
-    ]));
+    let v = readme_sweep_case("lqg", 2, 108, &[]);
     let drawn = &v["draw"];
     assert!(
         drawn["ei_scale"].as_f64().unwrap() < 0.82 && drawn["rho_scale"].as_f64().unwrap() > 1.15,
@@ -899,29 +878,7 @@ fn a_finer_encoder_does_not_cost_a_beam_off_the_model_its_settling() {
     // times the model's). Designed on a 2^20-count encoder's own quantisation, smc-modal's
     // observer followed the encoder so closely that this beam's half turn rang on past
     // 2400 ue and never settled; designed no finer than the reference encoder, it settles.
-    let v = json(&beam(&[
-        "sweep",
-        "--controller",
-        "smc-modal",
-        "--moves",
-        "180",
-        "--shortest",
-        "--cases",
-        "200",
-        "--coulomb-max",
-        "0.05",
-        "--damping-ratio",
-        "0.005,0.02",
-        "--duration",
-        "4",
-        "--seed",
-        "1",
-        "--encoder-counts",
-        "1048576",
-        "--case",
-        "30",
-        "--json",
-    ]));
+    let v = readme_sweep_case("smc-modal", 1, 30, &["--encoder-counts", "1048576"]);
     let draw = &v["draw"];
     let near = |k: &str, x: f64| (draw[k].as_f64().unwrap() - x).abs() < 0.01;
     assert!(
@@ -931,4 +888,34 @@ fn a_finer_encoder_does_not_cost_a_beam_off_the_model_its_settling() {
     let settle = v["settle_s"].as_f64();
     assert!(settle.is_some_and(|s| s < 1.0), "{settle:?}");
     assert!(v["peak_root_strain_ue"].as_f64().unwrap() < 2000.0, "{v}");
+}
+
+/// Case `case` of the README's 180 deg sweep of `law` on `seed` (with `extra` flags), alone,
+/// as `beam sweep --case --json` reports it: its draw and its metrics.
+fn readme_sweep_case(law: &str, seed: u64, case: usize, extra: &[&str]) -> serde_json::Value {
+    let (seed, case) = (seed.to_string(), case.to_string());
+    let mut args = vec![
+        "sweep",
+        "--controller",
+        law,
+        "--moves",
+        "180",
+        "--shortest",
+        "--cases",
+        "200",
+        "--coulomb-max",
+        "0.05",
+        "--damping-ratio",
+        "0.005,0.02",
+        "--no-peer",
+        "--duration",
+        "4",
+        "--seed",
+        &seed,
+        "--case",
+        &case,
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    json(&beam(&args))
 }
