@@ -58,6 +58,7 @@ struct Segment {
 impl Segment {
     /// The quintic Hermite segment from `(t0, p0, v0, a0)` to `(t1, p1, v1, a1)`, in
     /// tau = (t - t0)/h with velocities and accelerations scaled to it.
+    #[inline(never)]
     fn hermite(
         (t0, p0, v0, a0): (f32, f32, f32, f32),
         (t1, p1, v1, a1): (f32, f32, f32, f32),
@@ -89,6 +90,38 @@ pub struct Spline<const K: usize> {
     duration_s: f32,
 }
 
+/// The knots' rules, for `n` knots whose `knot(i)` gives the time and whether the rest of
+/// the knot is finite: 2 to `capacity` knots, all finite, the first at t = 0, times
+/// increasing. One copy for every spline's capacity (the drive's flash).
+#[inline(never)]
+fn check_knots(
+    n: usize,
+    capacity: usize,
+    knot: &dyn Fn(usize) -> (f32, bool),
+) -> Result<(), SplineError> {
+    if n < 2 {
+        return Err(SplineError::TooFewKnots);
+    }
+    if n > capacity {
+        return Err(SplineError::TooManyKnots { capacity });
+    }
+    for index in 0..n {
+        let (t, rest_finite) = knot(index);
+        if !(t.is_finite() && rest_finite) {
+            return Err(SplineError::NonFinite { index });
+        }
+    }
+    if knot(0).0 != 0.0 {
+        return Err(SplineError::FirstKnotNotAtZero);
+    }
+    for index in 1..n {
+        if !(knot(index).0 > knot(index - 1).0) {
+            return Err(SplineError::TimesNotIncreasing { index });
+        }
+    }
+    Ok(())
+}
+
 impl<const K: usize> Spline<K> {
     /// The paper's single-segment minimum-jerk move from `from` to `to` in `duration_s`.
     pub fn quintic(from: f32, to: f32, duration_s: f32) -> Result<Self, SplineError> {
@@ -101,7 +134,7 @@ impl<const K: usize> Spline<K> {
         // By `get`: no bounds-check panic on the drive's command path (every index is below
         // `n`, which `check` has bounded).
         let knot = |i: usize| knots.get(i).copied().unwrap_or((0.0, 0.0));
-        Self::check(n, |i| (knot(i).0, knot(i).1.is_finite()))?;
+        check_knots(n, K, &|i| (knot(i).0, knot(i).1.is_finite()))?;
         // Knot velocities and accelerations: rest at the ends, central differences inside.
         let slope = |i: usize| (knot(i + 1).1 - knot(i).1) / (knot(i + 1).0 - knot(i).0);
         let vel_acc = |i: usize| -> (f32, f32) {
@@ -138,7 +171,7 @@ impl<const K: usize> Spline<K> {
         let n = states.len();
         // By `get`: no bounds-check panic on the drive's command path.
         let state = |i: usize| states.get(i).copied().unwrap_or_default();
-        Self::check(n, |i| {
+        check_knots(n, K, &|i| {
             let (t, p, v, a) = state(i);
             (t, p.is_finite() && v.is_finite() && a.is_finite())
         })?;
@@ -153,32 +186,6 @@ impl<const K: usize> Spline<K> {
             end: last.1,
             duration_s: last.0,
         })
-    }
-
-    /// The knots' rules, for `n` knots whose `knot(i)` gives the time and whether the rest of
-    /// the knot is finite: 2 to K knots, all finite, the first at t = 0, times increasing.
-    fn check(n: usize, knot: impl Fn(usize) -> (f32, bool)) -> Result<(), SplineError> {
-        if n < 2 {
-            return Err(SplineError::TooFewKnots);
-        }
-        if n > K {
-            return Err(SplineError::TooManyKnots { capacity: K });
-        }
-        for index in 0..n {
-            let (t, rest_finite) = knot(index);
-            if !(t.is_finite() && rest_finite) {
-                return Err(SplineError::NonFinite { index });
-            }
-        }
-        if knot(0).0 != 0.0 {
-            return Err(SplineError::FirstKnotNotAtZero);
-        }
-        for index in 1..n {
-            if !(knot(index).0 > knot(index - 1).0) {
-                return Err(SplineError::TimesNotIncreasing { index });
-            }
-        }
-        Ok(())
     }
 
     /// Position, velocity and acceleration at `t_s` seconds after the start of the move,
