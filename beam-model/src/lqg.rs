@@ -130,17 +130,23 @@ pub struct LqgDesign {
     pub bd: [f32; MAX_STATES],
     /// Root strain per modal coordinate (the second output row is `[0, e, 0, 0]`).
     pub strain_coef: [f32; DESIGN_MODES],
-    /// Root strain per unit hub acceleration (rad/s^2) of the beam's modes the design leaves
-    /// out, bent statically by it ([`omitted_strain_per_acc`]): the observer and the
-    /// identifier expect the gauge to read it on top of the design's modes' strain, at the
-    /// reference's acceleration.
+    /// Root strain per unit of the reference's acceleration (rad/s^2) of the modes the
+    /// design leaves out, bent statically by it ([`OmittedStrain`]): with the two fields
+    /// below, what the observer and the identifier expect the gauge to read on top of the
+    /// design's modes' strain while the reference moves.
     ///
-    /// Those modes are stiff (97 Hz and up on the aluminium beam), so under a move's
-    /// acceleration they bend almost statically: by 1 % of the two modes' root strain on
-    /// that beam (2.6 % at 50 g), 10 ue and more at the planner's shortest moves. Not
-    /// expected, the observer read it as its own modes' strain and, after each fast move,
-    /// held the hub a tenth of a degree off; the identifier read it as a softer beam.
+    /// Those modes are stiff (97 Hz and up on the aluminium beam), so under a move they
+    /// bend almost statically: 10 ue and more at the planner's shortest moves. Not expected,
+    /// the observer read it as its own modes' strain and, after each fast move, held the hub
+    /// a tenth of a degree off; the identifier read it as a softer beam.
     pub strain_omitted: f32,
+    /// The same per change of the reference beam's mode rates over a tick (m/s): the hub
+    /// swings about the rigid reference as the beam does (`ref_hub`), and a payload couples
+    /// the modes' accelerations into the ones left out.
+    pub strain_omitted_rate: [f32; DESIGN_MODES],
+    /// The same per (rad/s)^2 of the reference's hub rate and per modal coordinate of the
+    /// reference beam (m): the centrifugal load of the bent beam (at 20 rad/s, 5-10 ue).
+    pub strain_omitted_spin: [f32; DESIGN_MODES],
     /// The Kalman gain, a column per output: hub angle, root strain.
     pub l: [[f32; 2]; MAX_STATES],
     /// The state-feedback gain, N m per state unit.
@@ -233,6 +239,8 @@ impl LqgDesign {
         bd: [0.0; MAX_STATES],
         strain_coef: [0.0; DESIGN_MODES],
         strain_omitted: 0.0,
+        strain_omitted_rate: [0.0; DESIGN_MODES],
+        strain_omitted_spin: [0.0; DESIGN_MODES],
         l: [[0.0; 2]; MAX_STATES],
         k: [0.0; MAX_STATES],
         k_move: [0.0; MAX_STATES],
@@ -369,27 +377,98 @@ fn sampled_with<const N: usize>(
     Some((ad, bd))
 }
 
-/// The root strain per unit hub acceleration (rad/s^2) that the beam of `model` bends by
-/// beyond the model's modes, bent statically by it: the beam's own statics
-/// ([`crate::BeamParams::static_root_strain_per_acc`], every mode) less the model's (`q =
-/// -Kqq^-1 h theta''`, read as `e' q`: `crate::plant::static_strain`). 0 if the stiffness is
-/// singular.
+/// The root strain of the modes past a design's [`DESIGN_MODES`], bent statically by a move
+/// (their rows of the model, `Mqq q'' + Kqq q = -h theta'' + theta'^2 S q`, with their own
+/// accelerations and their share of the centrifugal load left out, so that `K_oo q_o =
+/// -h_o theta'' - M_od q_d'' + theta'^2 S_od q_d`, `o` the modes left out and `d` the
+/// design's), read at the root.
 ///
-/// From the beam, not from a model with more modes: the assumed modes' statics converge to
-/// the beam's from either side (on the aluminium beam at 50 g, three modes give 0.8 % more
-/// than the root moment and four 0.7 % less), so a drive that took the third mode's from a
-/// three-mode model would expect, of a beam that has them all, more than it bends by.
-pub fn omitted_strain_per_acc<const N: usize>(model: &ModalModel<N>) -> f64 {
-    if crate::linalg::cholesky(&model.kqq).is_none() {
-        return 0.0;
+/// From the model's own modes, not from the beam's exact statics: the drive expects what its
+/// model says the beam bends by. The root strain's modal sum converges slowly (on the
+/// aluminium beam the third mode holds 4.3e-8 per rad/s^2, the beam's exact root moment
+/// 7.3e-8 more than the first two), and a drive that expected the beam's of a simulated
+/// three-mode beam settled the exact 180 deg move 0.05 s later than fed the true state
+/// (docs/design.md, section 4b).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OmittedStrain {
+    /// Per unit hub acceleration, rad/s^2.
+    pub per_acc: f64,
+    /// Per unit acceleration of each of the design's modes, m/s^2.
+    pub per_mode_acc: [f64; DESIGN_MODES],
+    /// Per (rad/s)^2 of hub rate, per unit of each of the design's modes, m.
+    pub per_spin: [f64; DESIGN_MODES],
+}
+
+impl OmittedStrain {
+    /// Of `model`: all zero if it has no modes past the design's, or its stiffness is
+    /// singular.
+    pub fn of<const N: usize>(model: &ModalModel<N>) -> Self {
+        // `K_oo^-1` as the solve of the stiffness with the design's rows and columns made
+        // the identity: a load on the modes left out bends only them.
+        let mut k = model.kqq;
+        for i in 0..N {
+            for j in 0..N {
+                if i < DESIGN_MODES || j < DESIGN_MODES {
+                    k[i][j] = if i == j { 1.0 } else { 0.0 };
+                }
+            }
+        }
+        let Some(l) = crate::linalg::cholesky(&k) else {
+            return Self::default();
+        };
+        // The root strain of the modes left out under a modal load `v` on them.
+        let strain = |v: &dyn Fn(usize) -> f64| -> f64 {
+            let load: [f64; N] =
+                core::array::from_fn(|i| if i < DESIGN_MODES { 0.0 } else { v(i) });
+            let q = crate::linalg::chol_solve(&l, &load);
+            (DESIGN_MODES..N)
+                .map(|i| model.root_strain_coef[i] * q[i])
+                .sum()
+        };
+        Self {
+            per_acc: strain(&|i| -model.h[i]),
+            per_mode_acc: core::array::from_fn(|j| {
+                if j < N {
+                    strain(&|i| -model.mqq[i][j])
+                } else {
+                    0.0
+                }
+            }),
+            per_spin: core::array::from_fn(|j| {
+                if j < N {
+                    strain(&|i| model.s[i][j])
+                } else {
+                    0.0
+                }
+            }),
+        }
     }
-    let modes = -crate::plant::static_strain(model, &model.h);
-    model
-        .beam
-        .params()
-        .static_root_strain_per_acc()
-        .copysign(modes)
-        - modes
+}
+
+/// [`design`] on `model`'s first [`DESIGN_MODES`] modes (a model with no more is designed on
+/// as it is), expecting the strain of the modes past them ([`OmittedStrain`]): what a drive
+/// is designed on.
+pub fn design_leading<const N: usize>(
+    model: &ModalModel<N>,
+    weights: &LqgWeights,
+    noise: &SensorNoise,
+    ts_s: f64,
+) -> Result<LqgDesign, LqgError> {
+    let Some(leading) = leading_modes::<N, DESIGN_MODES>(model) else {
+        return design(model, weights, noise, ts_s);
+    };
+    let mut d = design(&leading, weights, noise, ts_s)?;
+    let omitted = OmittedStrain::of(model);
+    d.strain_omitted = omitted.per_acc as f32;
+    // Per change of the reference beam's mode rates over a tick: the hub's swing about the
+    // rigid reference (`ref_hub`, `-h / Mtt`) and the modes' own accelerations.
+    for j in 0..DESIGN_MODES {
+        let swing = -leading.h[j] / leading.mtt;
+        d.strain_omitted_rate[j] =
+            ((omitted.per_acc * swing + omitted.per_mode_acc[j]) / ts_s) as f32;
+        d.strain_omitted_spin[j] = omitted.per_spin[j] as f32;
+    }
+    Ok(d)
 }
 
 /// The model reduced to its first `M` modes (the leading rows and columns of each matrix;
@@ -455,6 +534,8 @@ fn stiffened<const N: usize>(model: &ModalModel<N>, stiffness: f64) -> ModalMode
 /// Designs the observer and the state feedback for `model` sampled at `ts_s`: the continuous
 /// model sampled, the regulator (`regulator`), the Kalman filter (`kalman`), both in the
 /// drive's fixed layout, then the reference beam and the feedforward (`reference_beam`).
+/// `model` has at most [`DESIGN_MODES`] modes, so nothing is expected of modes past them:
+/// [`design_leading`] designs on a larger model's leading modes and expects the rest.
 pub fn design<const N: usize>(
     model: &ModalModel<N>,
     weights: &LqgWeights,
@@ -554,7 +635,6 @@ pub fn design<const N: usize>(
     for i in 0..N {
         out.strain_coef[i] = e[i] as f32;
     }
-    out.strain_omitted = omitted_strain_per_acc(model) as f32;
     if weights.count_interval && noise.encoder_step_rad.is_finite() {
         let step = noise.encoder_step_rad as f32;
         out.count_interval = [step.min(0.0), step.max(0.0)];

@@ -413,6 +413,8 @@ impl Known {
             d.bd = beam.bd;
             d.strain_coef = beam.strain_coef;
             d.strain_omitted = beam.strain_omitted;
+            d.strain_omitted_rate = beam.strain_omitted_rate;
+            d.strain_omitted_spin = beam.strain_omitted_spin;
             d.obs_s_hub = beam.obs_s_hub;
             d.count_interval = beam.count_interval;
             d.id_a = beam.id_a;

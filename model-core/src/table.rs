@@ -16,7 +16,7 @@
 
 use crate::beam::ParamError;
 use crate::controller::ControllerSettings;
-use crate::law::{ControlLaw, Law, LawKind, LawPlant, LawSet, ALL_LAWS, LQG_MODES};
+use crate::law::{ControlLaw, Law, LawKind, LawPlant, LawSet, ALL_LAWS};
 pub use crate::measure::Instruments;
 use crate::modal::ModalModel;
 use crate::planner::Limits;
@@ -126,15 +126,12 @@ impl<const N: usize> LawPlant for Instrumented<'_, N> {
             return None;
         }
         let noise = self.instruments.noise();
-        // On the first LQG_MODES modes: a controller that also observes the higher modes
+        // On the first `LQG_MODES` modes: a controller that also observes the higher modes
         // tracks them on the model's frequencies, and a beam a few percent off those turns
         // them unstable (spillover; with 1 % damping there is no margin to spare). Left out,
         // they see a gain that has rolled off by their frequencies. A model with fewer modes
         // is designed on as it is.
-        Some(match lqg::leading_modes::<N, LQG_MODES>(self.model) {
-            Some(leading) => lqg::design(&leading, weights, &noise, ts_s),
-            None => lqg::design(self.model, weights, &noise, ts_s),
-        })
+        Some(lqg::design_leading(self.model, weights, &noise, ts_s))
     }
 }
 

@@ -220,6 +220,12 @@ impl Adaptation {
         Self {
             k_move: d.k_move,
             k_move_filter: d.k_move_filter,
+            // A design that does not identify (`LqgDesign::id_a` zero) starts with its
+            // identifier done: the tick asks only whether it has run its ticks.
+            identifier: Identifier {
+                ticks: if d.id_a[0] == 0.0 { IDENTIFY_TICKS } else { 0 },
+                ..Identifier::default()
+            },
             ..Self::default()
         }
     }
@@ -557,10 +563,6 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     // as the held torque swings the beam.
     let acc = r.acc;
     let at_rest = r.vel == 0.0 && acc == 0.0;
-    // The strain the modes the design leaves out bend the root by, at the held acceleration
-    // (`LqgDesign::strain_omitted`): the gauge reads it on top of the design's modes, and
-    // both the observer and the identifier expect it.
-    let omitted = d.strain_omitted * acc;
     let ff = d.mtt * acc + d.viscous * vel;
     // Made here, not where it is returned: left to itself, LLVM loads these coefficients
     // now, spills them to the stack over the reference beam's step and adds them up after
@@ -572,12 +574,12 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
     // damp, not to follow. (A move through waypoints that stops at one for a tick resets
     // it there too; the law cannot tell that pause from the end.)
     // Each row is stored as it is made (an array made first is stored and copied).
-    if at_rest {
+    let omitted = if at_rest {
         state.reference = [0.0; 2 * DESIGN_MODES];
         state.move_weight *= MOVE_FADE_PER_TICK;
+        0.0
     } else {
         state.move_weight = 1.0;
-        adapt::<IDENTIFY, BEND>(d, x, state, omitted);
         unrolled!(i in [0 1 2 3] => {
             let z = dot4(d.ref_bd[i] * acc, &d.ref_ad[i], &rb);
             state.reference[i] = if i < DESIGN_MODES {
@@ -586,7 +588,24 @@ pub(super) fn observe<const IDENTIFY: bool, const BEND: bool>(
                 z + w2 * dot2(-0.0, &d.ref_s[i - DESIGN_MODES], &rq)
             };
         });
-    }
+        // The strain the modes the design leaves out bend the root by, statically, as the
+        // reference state moves (`LqgDesign::strain_omitted` and the fields beside it): at
+        // the reference's acceleration, the change of the reference beam's rates over this
+        // tick (the hub's swing on it, and a payload's coupling), and the centrifugal load
+        // of the beam bent as the feedback holds it. The gauge reads it on top of the
+        // design's modes; the observer and the identifier expect it. (The rates' change is
+        // the reference beam's, not scaled by the compliance found as the bending is: two
+        // products of the identifier's ticks, the law's most costly, for a tenth of a
+        // few ue.)
+        let nr = state.reference;
+        let omitted = dot2(
+            d.strain_omitted * acc,
+            &d.strain_omitted_rate,
+            &[nr[2] - rb[2], nr[3] - rb[3]],
+        ) + w2 * dot2(-0.0, &d.strain_omitted_spin, &tq);
+        adapt::<IDENTIFY, BEND>(d, x, state, omitted);
+        omitted
+    };
     // The prediction, from the torque applied last tick; the innovations need the angle's
     // and the modes' rows first.
     let xo = state.estimate;
@@ -747,18 +766,21 @@ fn adapt<const IDENTIFY: bool, const BEND: bool>(
         id.stiffness = stiffness;
         id.compliance = compliance;
     }
+    // Until the identifier has finished (by the tick before this one) there is nothing to
+    // move to; its ticks, the law's most costly, skip the blend.
+    if !finished {
+        return;
+    }
     a.stiffness += COMPLIANCE_BLEND_PER_TICK * (id.stiffness - a.stiffness);
     // Only a law whose reference bends by it (`observe`'s `BEND`) reads the compliance.
     if BEND {
         a.compliance += COMPLIANCE_BLEND_PER_TICK * (id.compliance - a.compliance);
         // The moving regulator follows the compliance.
-        if finished {
-            let c = a.compliance;
-            unrolled!(i in [0 1 2 3 4 5] => {
-                a.k_move[i] = d.k_move[i] + c * d.k_move_compliance[i];
-            });
-            a.k_move_filter = d.k_move_filter + c * d.k_move_filter_compliance;
-        }
+        let c = a.compliance;
+        unrolled!(i in [0 1 2 3 4 5] => {
+            a.k_move[i] = d.k_move[i] + c * d.k_move_compliance[i];
+        });
+        a.k_move_filter = d.k_move_filter + c * d.k_move_filter_compliance;
     }
 }
 
@@ -813,7 +835,8 @@ pub fn clamped_coupling(d: &LqgDesign) -> [f32; DESIGN_MODES] {
 #[cfg(feature = "identify")]
 #[inline(always)]
 fn identify(d: &LqgDesign, x: &Estimate, id: &mut Identifier, omitted: f32) -> Option<[f32; 2]> {
-    if id.ticks >= IDENTIFY_TICKS || d.id_a[0] == 0.0 {
+    // (A design that does not identify starts with its ticks run, `Adaptation::start`.)
+    if id.ticks >= IDENTIFY_TICKS {
         return None;
     }
     let theta = x.theta;
