@@ -10,8 +10,9 @@ sweep's histograms (settle time and residual strain, against PD 20/1) for smc-mo
 and pd-ff.
 With --readme it prints the README's table instead: a row per law, a cell per move
 (settle nominal / p50 / p95, s; peak torque and peak root strain over the sweep, N m and
-microstrain), and the observer laws again with the beam's true state fed to the law
-(`--true-state`: what the observer costs).
+microstrain), the observer laws again with the beam's true state fed to the law
+(`--true-state`: what the observer costs), and smc-modal as a calibrated rig's drive
+(`--exact --drive-knows-beam`: each beam known, its shortest moves planned exact).
 Usage: docs/settle/compare.py [CASES] [--plot DIR] [--readme]
 """
 import json
@@ -31,6 +32,8 @@ DAMPING = "0.005,0.02"
 PLOTTED = ("smc-modal", "lqg", "pd-ff")
 # The laws run again with the true state in place of their observer's estimate.
 TRUE_STATE = ["lqg", "smc-modal"]
+# The laws run again as a calibrated rig's drive would: each beam known, moves exact.
+CALIBRATED = ["smc-modal"]
 
 
 def beam(*args):
@@ -72,16 +75,22 @@ def readme(cases):
     print("| law | " + " | ".join(f"{d} deg" for d in MOVES)
           + f" | not settled of {cases * len(MOVES)} | hold 0.5 N m, deg |")
     print("|---|" + "---|" * len(MOVES) + "---|---|")
-    rows = [(law, law, ()) for law in LAWS]
-    rows += [(law, f"{law}, fed the true state", ("--true-state",)) for law in TRUE_STATE]
-    for law, label, extra in rows:
+    # Each row: the law, its label, and the options of its nominal run, its sweep and its hold.
+    rows = [(law, law, (), (), ()) for law in LAWS]
+    rows += [(law, f"{law}, fed the true state", ("--true-state",), ("--true-state",),
+              ("--true-state",)) for law in TRUE_STATE]
+    # A calibrated drive: each beam known to its drive (its table made on it), its shortest
+    # moves planned exact on the law's reference beam. The hold is the same law's.
+    rows += [(law, f"{law}, each beam known, exact moves", ("--exact",),
+              ("--exact", "--drive-knows-beam"), ()) for law in CALIBRATED]
+    for law, label, at_nominal, over_spread, holding in rows:
         cells, unsettled = [], 0
         for deg in MOVES:
-            s, _, _ = nominal(law, deg, *extra)
-            p50, p95, never, _, peak_max, strain_max = spread(law, deg, cases, None, *extra)
+            s, _, _ = nominal(law, deg, *at_nominal)
+            p50, p95, never, _, peak_max, strain_max = spread(law, deg, cases, None, *over_spread)
             unsettled += never
             cells.append(f"{fmt(s)} / {fmt(p50)} / {fmt(p95)}; {peak_max:.1f} N m, {strain_max:.0f} ue")
-        print(f"| {label} | " + " | ".join(cells) + f" | {unsettled} | {fmt(hold(law, *extra))} |")
+        print(f"| {label} | " + " | ".join(cells) + f" | {unsettled} | {fmt(hold(law, *holding))} |")
         sys.stdout.flush()
 
 
