@@ -656,7 +656,7 @@ pub(crate) mod tests {
     #[cfg(feature = "identify")]
     #[test]
     fn the_identifiers_correction_rises_to_the_ranges_top_where_the_step_is_held() {
-        use lqg::{IDENTIFY_STEP_BIAS as B, IDENTIFY_STEP_MAX as MAX};
+        use lqg::identify::{IDENTIFY_STEP_BIAS as B, IDENTIFY_STEP_MAX as MAX};
         let corrected = |k: f32| k - B * (k - 1.0) * (k - 1.0);
         assert_eq!(1.0 - 2.0 * B * (MAX - 1.0), 0.0, "the slope at the top");
         assert_eq!(corrected(MAX), IDENTIFY_RANGE[1]);
